@@ -1,0 +1,23 @@
+//! mmq-core: what every part of mmq shares — the [`Env`] trait, worlds, seeds, reward
+//! delay distributions, the [`DelayedReward`] channel, the exact optimum of a world and
+//! the [`Observer`] hooks.
+//!
+//! Architecture invariant: this crate knows no learner, no physics engine, no log format
+//! and no plotting library.
+
+pub mod channel;
+pub mod delay;
+pub mod env;
+pub mod observer;
+pub mod optimum;
+pub mod seed;
+pub mod stats;
+pub mod world;
+
+pub use channel::{DelayedReward, DelayedStep, Emission, Ledger};
+pub use delay::{DelayDist, DelayError, DelaySampler};
+pub use env::{Action, ContactSample, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace};
+pub use observer::{Observer, RunInfo, StepRecord};
+pub use optimum::{Optimum, optimum};
+pub use seed::{Rng, SeedTree, Stream};
+pub use world::{Cell, Rewards, StartRule, World, WorldError};
