@@ -1,1 +1,102 @@
-//! x
+//! mmq-learn: learners that see only (s, a, s', delivered reward), one file per
+//! algorithm, each reading like the paper with its equation numbers.
+//!
+//! | learner | file | paper |
+//! |---|---|---|
+//! | `q` | [`qlearning`] | eq. (2) |
+//! | `fixed` | [`fixed_delay`] | eq. (4) |
+//! | `mmq` | [`mmq`] (fast) / [`mmq_reference`] (plain transcription) | Algorithm 1, eqs. (5)–(7) |
+//!
+//! Architecture invariant: learners know no environment, no physics, no log format;
+//! exploration randomness comes in from the caller's stream.
+
+pub mod fixed_delay;
+pub mod mmq;
+pub mod mmq_reference;
+pub mod policy;
+pub mod qlearning;
+pub mod spec;
+
+pub use spec::{LearnError, LearnerKind, LearnerSpec, build, catalogue};
+
+use mmq_core::{Action, Rng, State};
+
+/// What the learner decided in a state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Decision {
+    /// The action to take.
+    pub action: Action,
+    /// The delay model acted on (MMQ's λ̂*), if the learner has models and acted greedily.
+    pub model: Option<usize>,
+    /// True when the action was drawn by ε-exploration.
+    pub explored: bool,
+}
+
+/// Ground truth the channel knows; only the oracle learner may read it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Truth {
+    /// The reward emitted at this step, if it was non-zero (it is in flight now).
+    pub emitted_now: Option<f64>,
+    /// Emissions delivered at this step: (emission step, value).
+    pub delivered: Vec<(u64, f64)>,
+}
+
+/// One step as the learner sees it.
+#[derive(Clone, Copy, Debug)]
+pub struct Experience<'a> {
+    /// Decision step t (0, 1, 2, ...; consecutive).
+    pub t: u64,
+    /// s_t.
+    pub state: State,
+    /// a_t.
+    pub action: Action,
+    /// s_{t+1} (s').
+    pub next_state: State,
+    /// r_t: the reward delivered at t (a sum of delayed emissions, maybe 0).
+    pub reward: f64,
+    /// Ground truth, given only to learners whose [`Learner::needs_truth`] is true.
+    pub truth: Option<&'a Truth>,
+}
+
+/// A named table of numbers for export (shape in C order).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table {
+    /// File stem, e.g. `q` for `q.npy`.
+    pub name: String,
+    /// Dimensions, e.g. [states, models, actions].
+    pub shape: Vec<usize>,
+    /// Data in C order.
+    pub data: Vec<f64>,
+}
+
+/// A learning agent for the continuing task.
+pub trait Learner: Send + std::fmt::Debug {
+    /// Short name (as on the command line).
+    fn name(&self) -> &'static str;
+    /// Chooses the action in `state` (ε-greedy, ties at random).
+    fn act(&mut self, state: State, rng: &mut Rng) -> Decision;
+    /// Learns from one step.
+    fn observe(&mut self, exp: &Experience<'_>);
+    /// The greedy action (no exploration; ties at random).
+    fn greedy(&self, state: State, rng: &mut Rng) -> Action;
+    /// The action values the policy acts on in `state` (MMQ: those of its best model).
+    fn action_values(&self, state: State, out: &mut [f64]);
+    /// The Q-tables, for export.
+    fn tables(&self) -> Vec<Table>;
+    /// Whether the learner must be given [`Truth`] (only the oracle).
+    fn needs_truth(&self) -> bool {
+        false
+    }
+    /// Learner-specific figures for the summary (e.g. a delay estimate).
+    fn metrics(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+    /// Starts a new run: clears memories of past steps (tables are kept).
+    fn reset_history(&mut self) {}
+}
+
+/// Maximum of a slice (NaN-free values).
+#[inline]
+pub(crate) fn max_of(xs: &[f64]) -> f64 {
+    xs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+}

@@ -1,0 +1,72 @@
+//! Steps per second of each learner on the paper's 9×9 world with the Poisson(13)
+//! channel (environment, channel and learner together, as in a run), and of the
+//! channel alone.
+//!
+//! `cargo bench -p mmq-learn --bench learners`
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
+use mmq_grid::GridEnv;
+use mmq_learn::{Experience, LearnerKind, LearnerSpec};
+
+const STEPS: u64 = 100_000;
+
+fn world() -> World {
+    World::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml")).unwrap()
+}
+
+fn run(kind: LearnerKind, steps: u64) -> f64 {
+    let w = world();
+    let spec = LearnerSpec { kind, ..LearnerSpec::default() };
+    let mut learner = spec.build(w.num_cells(), 4, 1 << 30).unwrap();
+    let seeds = SeedTree::new(1);
+    let mut ch = DelayedReward::new(GridEnv::new(&w), &DelayDist::Poisson(13.0), false);
+    let mut s = ch.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay), Start::World).unwrap();
+    let mut rng: Rng = seeds.rng(Stream::Explore);
+    let mut total = 0.0;
+    for t in 0..steps {
+        let d = learner.act(s, &mut rng);
+        let st = ch.step(d.action).unwrap();
+        learner.observe(&Experience {
+            t,
+            state: s,
+            action: d.action,
+            next_state: st.step.state,
+            reward: st.delivered,
+            truth: None,
+        });
+        total += st.step.reward;
+        s = st.step.state;
+    }
+    total
+}
+
+fn bench(c: &mut Criterion) {
+    let mut g = c.benchmark_group("learner-steps-9x9-poisson13");
+    g.throughput(Throughput::Elements(STEPS));
+    g.sample_size(10);
+    for kind in [LearnerKind::Q, LearnerKind::Fixed, LearnerKind::Mmq] {
+        g.bench_function(kind.name(), |b| b.iter(|| run(kind, STEPS)));
+    }
+    g.bench_function("channel-only", |b| {
+        b.iter(|| {
+            let w = world();
+            let mut ch = DelayedReward::new(GridEnv::new(&w), &DelayDist::Poisson(13.0), false);
+            ch.reset(1, 2, Start::World).unwrap();
+            let mut acc = 0.0;
+            for t in 0..STEPS {
+                acc += ch.step((t % 4) as usize).unwrap().delivered;
+            }
+            acc
+        })
+    });
+    g.finish();
+    let mut g = c.benchmark_group("mmq-reference-9x9");
+    g.throughput(Throughput::Elements(10_000));
+    g.sample_size(10);
+    g.bench_function("mmq-reference", |b| b.iter(|| run(LearnerKind::MmqReference, 10_000)));
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -1,0 +1,115 @@
+//! Q-learning (Watkins), the paper's eq. (2):
+//!
+//! Q_{k+1}(s, a) ← Q_k(s, a) + α [ r + γ max_a' Q_k(s', a') − Q_k(s, a) ]
+//!
+//! r is whatever reward arrives at t — under a delay channel, rewards caused by earlier
+//! actions. This is the paper's "single-model Q-learning (λ̂ = 0)".
+
+use mmq_core::{Action, Rng, State};
+
+use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::spec::Params;
+use crate::{Decision, Experience, Learner, Table, max_of};
+
+/// Tabular Q-learning.
+#[derive(Clone, Debug)]
+pub struct QLearning {
+    p: Params,
+    num_actions: usize,
+    /// Q[s × |A| + a].
+    q: Vec<f64>,
+}
+
+impl QLearning {
+    /// A table for `num_states` × `num_actions`, every entry `p.q0`.
+    pub fn new(p: Params, num_states: usize, num_actions: usize) -> Self {
+        Self { p, num_actions, q: vec![p.q0; num_states * num_actions] }
+    }
+
+    /// Q(s, ·).
+    #[inline]
+    pub fn row(&self, s: State) -> &[f64] {
+        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
+    }
+
+    /// Q(s, a).
+    pub fn q(&self, s: State, a: Action) -> f64 {
+        self.q[s * self.num_actions + a]
+    }
+}
+
+impl Learner for QLearning {
+    fn name(&self) -> &'static str {
+        "q"
+    }
+
+    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
+        let row = self.row(s);
+        let (action, explored) =
+            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        Decision { action, model: None, explored }
+    }
+
+    #[inline]
+    fn observe(&mut self, e: &Experience<'_>) {
+        let (alpha, gamma) = (self.p.alpha, self.p.gamma);
+        let m = max_of(self.row(e.next_state));
+        let q = &mut self.q[e.state * self.num_actions + e.action];
+        // eq. (2)
+        *q += alpha * (e.reward + gamma * m - *q);
+    }
+
+    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
+        argmax_random_tie(self.row(s), rng)
+    }
+
+    fn action_values(&self, s: State, out: &mut [f64]) {
+        out.copy_from_slice(self.row(s));
+    }
+
+    fn tables(&self) -> Vec<Table> {
+        vec![Table {
+            name: "q".into(),
+            shape: vec![self.q.len() / self.num_actions, self.num_actions],
+            data: self.q.clone(),
+        }]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
+        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
+    }
+
+    /// Two hand-computed updates of eq. (2) with α = 0.1, γ = 0.9, q0 = 0.
+    #[test]
+    fn eq2_by_hand() {
+        let p = Params { alpha: 0.1, gamma: 0.9, epsilon: 0.0, q0: 0.0 };
+        let mut l = QLearning::new(p, 3, 2);
+        // Q(0,1) ← 0 + 0.1 (10 + 0.9·0 − 0) = 1
+        l.observe(&exp(0, 0, 1, 1, 10.0));
+        assert_eq!(l.q(0, 1), 1.0);
+        // Q(2,0) ← 0 + 0.1 (−1 + 0.9·max(Q(0,·)) − 0) = 0.1 (−1 + 0.9) = −0.01
+        l.observe(&exp(1, 2, 0, 0, -1.0));
+        assert!((l.q(2, 0) - (-0.01)).abs() < 1e-15);
+        // Q(0,1) ← 1 + 0.1 (0 + 0.9·max(Q(2,·)) − 1) with max(Q(2,·)) = 0: 1 − 0.1 = 0.9
+        l.observe(&exp(2, 0, 1, 2, 0.0));
+        assert!((l.q(0, 1) - 0.9).abs() < 1e-15);
+    }
+
+    #[test]
+    fn greedy_follows_the_table_and_q0_initialises() {
+        let p = Params { alpha: 0.5, gamma: 0.9, epsilon: 0.0, q0: 10.0 };
+        let mut l = QLearning::new(p, 2, 4);
+        assert_eq!(l.row(1), &[10.0; 4]);
+        l.observe(&exp(0, 1, 2, 0, 0.0)); // Q(1,2) ← 10 + 0.5 (0 + 9 − 10) = 9.5
+        assert_eq!(l.q(1, 2), 9.5);
+        let mut rng = mmq_core::seed::rng_from_seed(0);
+        for _ in 0..50 {
+            assert_ne!(l.greedy(1, &mut rng), 2);
+        }
+    }
+}
