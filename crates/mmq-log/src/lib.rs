@@ -1,0 +1,26 @@
+//! mmq-log: MCAP run logs — the [`McapRecorder`] (an [`mmq_core::Observer`]), a reader
+//! that recovers what it can from damaged files ([`read_log`]), a [`summary`], an SVG
+//! [`render`] of the trajectory, and [`compare`] for checking that two runs match.
+//!
+//! Logs are MCAP files with JSON messages described by `jsonschema` schemas, in zstd
+//! chunks. Geometry uses Foxglove's well-known schemas so the Foxglove app draws it;
+//! learning events use mmq's own (`mmq.*`). Topics, units and the time base are
+//! documented in `docs/logs.md` and in [`recorder`].
+//!
+//! Architecture invariant: this is the only crate that knows MCAP; it knows no learner
+//! and no physics engine (it sees runs only through `mmq_core`'s observer hooks).
+
+pub mod compare;
+pub mod error;
+pub mod messages;
+pub mod reader;
+pub mod recorder;
+pub mod render;
+pub mod summary;
+
+pub use compare::{Mismatch, compare};
+pub use error::LogError;
+pub use reader::{LogAttachment, LogContents, PoseStamp, ReadStop, Stamped, TopicInfo, read_log};
+pub use recorder::{McapRecorder, RecordStats, RecorderConfig, StepWindow, TopicStats};
+pub use render::{render, render_svg};
+pub use summary::{LogSummary, summary};

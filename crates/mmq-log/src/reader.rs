@@ -1,0 +1,377 @@
+//! Reading logs back: [`read_log`] streams an MCAP file record by record with the `mcap`
+//! crate's linear reader and keeps whatever is readable. A truncated or damaged file gives
+//! the messages before the damage and a [`ReadStop`] saying where reading stopped, never
+//! a panic.
+
+use std::collections::{BTreeMap, HashMap};
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::path::{Path, PathBuf};
+
+use mcap::records::Record;
+use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use mmq_core::{World, WorldError};
+use serde::de::DeserializeOwned;
+
+use crate::error::LogError;
+use crate::messages::{self as m, topics};
+use crate::recorder::{FNV_OFFSET, fnv_message};
+
+/// A message with its `log_time` (simulated ns since the start of the run).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stamped<T> {
+    /// Simulated time, ns since the start of the run.
+    pub log_time: u64,
+    /// The message.
+    pub msg: T,
+}
+
+/// A robot pose read from `/robot/pose`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseStamp {
+    /// Simulated time, ns.
+    pub log_time: u64,
+    /// x, metres.
+    pub x: f64,
+    /// y, metres.
+    pub y: f64,
+    /// Heading about +z, radians.
+    pub theta: f64,
+}
+
+/// One topic of a log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TopicInfo {
+    /// Schema name (`foxglove.Grid`, `mmq.Decision`, ...).
+    pub schema: String,
+    /// Schema encoding (`jsonschema`).
+    pub schema_encoding: String,
+    /// Schema text.
+    pub schema_text: String,
+    /// Message encoding (`json`).
+    pub message_encoding: String,
+    /// Messages read.
+    pub count: u64,
+    /// `log_time` of the first and last message read.
+    pub first_ns: u64,
+    /// See `first_ns`.
+    pub last_ns: u64,
+    /// FNV-1a 64 digest of the messages, as [`crate::RecordStats`] computes it.
+    pub digest: u64,
+    /// Messages whose JSON did not decode as the topic's message type.
+    pub undecodable: u64,
+}
+
+/// An attachment of a log (the world file, the resolved config).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LogAttachment {
+    /// Name (`world.toml`, `config.toml`).
+    pub name: String,
+    /// Media type.
+    pub media_type: String,
+    /// Time, ns.
+    pub log_time: u64,
+    /// Contents.
+    pub data: Vec<u8>,
+}
+
+/// Where and why reading stopped before the end of a file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReadStop {
+    /// Byte offset of the first record that could not be read (everything before it was
+    /// kept).
+    pub offset: u64,
+    /// Size of the file, bytes.
+    pub file_len: u64,
+    /// Messages recovered before the stop.
+    pub messages: u64,
+    /// Why reading stopped.
+    pub reason: String,
+}
+
+impl std::fmt::Display for ReadStop {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "reading stopped at byte {} of {} ({}); {} messages recovered before it",
+            self.offset, self.file_len, self.reason, self.messages
+        )
+    }
+}
+
+/// Everything read from a log.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LogContents {
+    /// The file.
+    pub path: PathBuf,
+    /// Its size, bytes.
+    pub file_len: u64,
+    /// Topics by name (every channel seen, with or without messages).
+    pub topics: BTreeMap<String, TopicInfo>,
+    /// Metadata records by name (`run`, `recorder`, `end`).
+    pub metadata: BTreeMap<String, BTreeMap<String, String>>,
+    /// Attachments in file order.
+    pub attachments: Vec<LogAttachment>,
+    /// `/rl/decision`.
+    pub decisions: Vec<Stamped<m::Decision>>,
+    /// `/rl/reward/emitted`.
+    pub emitted: Vec<Stamped<m::RewardEmitted>>,
+    /// `/rl/reward/delivered`.
+    pub delivered: Vec<Stamped<m::RewardDelivered>>,
+    /// `/rl/teleport`.
+    pub teleports: Vec<Stamped<m::Teleport>>,
+    /// `/sim/contact`.
+    pub contacts: Vec<Stamped<m::Contact>>,
+    /// `/robot/pose`.
+    pub poses: Vec<PoseStamp>,
+    /// `/foxglove/log`.
+    pub notes: Vec<Stamped<m::Log>>,
+    /// The last `/rl/heatmap/visits` grid.
+    pub last_visits: Option<Stamped<m::Grid>>,
+    /// The last `/rl/heatmap/value` grid.
+    pub last_value: Option<Stamped<m::Grid>>,
+    /// Messages read, all topics.
+    pub messages: u64,
+    /// The file was read to its end magic without a problem.
+    pub complete: bool,
+    /// Where reading stopped early, if it did.
+    pub stop: Option<ReadStop>,
+}
+
+impl LogContents {
+    /// The attachment called `name`.
+    pub fn attachment(&self, name: &str) -> Option<&LogAttachment> {
+        self.attachments.iter().find(|a| a.name == name)
+    }
+
+    /// A fact of the `run` metadata record (`seed`, `learner`, `env_kind`, ...).
+    pub fn run_fact(&self, key: &str) -> Option<&str> {
+        self.metadata.get("run")?.get(key).map(String::as_str)
+    }
+
+    /// The world the run used, parsed from the `world.toml` attachment.
+    pub fn world(&self) -> Result<World, LogError> {
+        let a = self.attachment("world.toml").ok_or_else(|| LogError::NoWorld {
+            path: self.path.clone(),
+            message: "the log has no world.toml attachment".into(),
+        })?;
+        let text = String::from_utf8_lossy(&a.data);
+        World::parse(&text, &format!("{}#world.toml", self.path.display()))
+            .map_err(|e: WorldError| LogError::NoWorld { path: self.path.clone(), message: e.to_string() })
+    }
+}
+
+#[derive(Debug)]
+struct SchemaRec {
+    name: String,
+    encoding: String,
+    text: String,
+}
+
+/// Reads a log, keeping what is readable.
+///
+/// Returns `Err` only when the file cannot be opened or is not an MCAP file at all; a
+/// truncated or damaged file returns its readable prefix with [`LogContents::stop`] set.
+/// Chunks are kept whole or not at all: a chunk that fails to decompress or to match its
+/// CRC ends the reading at its first byte.
+pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
+    let path = path.as_ref();
+    let io_err = |action, source| LogError::Io { path: path.to_path_buf(), action, source };
+    let file = File::open(path).map_err(|e| io_err("open the log", e))?;
+    let file_len = file.metadata().map_err(|e| io_err("read the log", e))?.len();
+    let mut input = BufReader::with_capacity(1 << 16, file);
+    let mut out = LogContents { path: path.to_path_buf(), file_len, ..Default::default() };
+    let mut st = State::default();
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_emit_chunks(true)
+            .with_record_length_limit(usize::try_from(file_len).unwrap_or(usize::MAX)),
+    );
+    // Offset of the next top-level record: the start magic, then opcode + length + body.
+    let mut offset: u64 = mcap::MAGIC.len() as u64;
+    let mut records_read = 0u64;
+    let mut in_data_section = true;
+    let stop_reason = loop {
+        let Some(event) = reader.next_event() else { break None };
+        match event {
+            Ok(LinearReadEvent::ReadRequest(need)) => {
+                let buf = reader.insert(need);
+                let n = loop {
+                    match input.read(buf) {
+                        Ok(n) => break Ok(n),
+                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                        Err(e) => break Err(e),
+                    }
+                };
+                match n {
+                    Ok(n) => reader.notify_read(n),
+                    Err(e) => return Err(io_err("read the log", e)),
+                }
+            }
+            Ok(LinearReadEvent::Record { opcode, data }) => {
+                let len = 9 + data.len() as u64;
+                let result = mcap::parse_record(opcode, data)
+                    .map_err(|e| e.to_string())
+                    .and_then(|rec| st.top_level(rec, &mut out, &mut in_data_section));
+                if let Err(reason) = result {
+                    break Some(reason);
+                }
+                offset += len;
+                records_read += 1;
+            }
+            Err(mcap::McapError::BadMagic) if records_read == 0 && offset == mcap::MAGIC.len() as u64 => {
+                return Err(LogError::NotMcap { path: path.to_path_buf() });
+            }
+            Err(mcap::McapError::UnexpectedEof) => {
+                break Some(if records_read == 0 {
+                    "the file ends before its first record".to_string()
+                } else if offset >= file_len {
+                    "the file ends without its summary and end magic (the run was not finished)".to_string()
+                } else {
+                    "the file ends in the middle of a record (truncated)".to_string()
+                });
+            }
+            Err(e) => break Some(e.to_string()),
+        }
+    };
+    match stop_reason {
+        None => out.complete = true,
+        Some(reason) => {
+            // A file too short to hold the start magic stops at its first byte.
+            let offset = if file_len < mcap::MAGIC.len() as u64 { 0 } else { offset };
+            out.stop = Some(ReadStop { offset, file_len, messages: out.messages, reason });
+        }
+    }
+    Ok(out)
+}
+
+/// Schemas and channels seen so far.
+#[derive(Debug, Default)]
+struct State {
+    schemas: HashMap<u16, SchemaRec>,
+    channels: HashMap<u16, String>,
+}
+
+/// A record from inside a chunk, owned until the whole chunk has been checked.
+enum Pending {
+    Schema(u16, SchemaRec),
+    Channel(mcap::records::Channel),
+    Message(mcap::records::MessageHeader, Vec<u8>),
+}
+
+impl State {
+    fn top_level(&mut self, rec: Record<'_>, out: &mut LogContents, data: &mut bool) -> Result<(), String> {
+        match rec {
+            Record::Chunk { header, data: bytes } => {
+                // Decode the whole chunk first: a damaged chunk is dropped whole.
+                let mut pending = Vec::new();
+                let reader = mcap::read::ChunkReader::new(header, &bytes).map_err(|e| e.to_string())?;
+                for inner in reader {
+                    match inner.map_err(|e| format!("damaged chunk: {e}"))? {
+                        Record::Schema { header, data } => pending.push(Pending::Schema(
+                            header.id,
+                            SchemaRec {
+                                name: header.name,
+                                encoding: header.encoding,
+                                text: String::from_utf8_lossy(&data).into_owned(),
+                            },
+                        )),
+                        Record::Channel(c) => pending.push(Pending::Channel(c)),
+                        Record::Message { header, data } => pending.push(Pending::Message(header, data.into_owned())),
+                        _ => {}
+                    }
+                }
+                for p in pending {
+                    match p {
+                        Pending::Schema(id, s) => {
+                            self.schemas.insert(id, s);
+                        }
+                        Pending::Channel(c) => self.channel(c, out),
+                        Pending::Message(h, d) => self.message(h, &d, out),
+                    }
+                }
+            }
+            Record::Schema { header, data: bytes } if *data => {
+                let text = String::from_utf8_lossy(&bytes).into_owned();
+                self.schemas.insert(header.id, SchemaRec { name: header.name, encoding: header.encoding, text });
+            }
+            Record::Channel(c) if *data => self.channel(c, out),
+            Record::Message { header, data: bytes } if *data => self.message(header, &bytes, out),
+            Record::Metadata(md) => {
+                out.metadata.insert(md.name, md.metadata);
+            }
+            Record::Attachment { header, data: bytes, .. } => out.attachments.push(LogAttachment {
+                name: header.name,
+                media_type: header.media_type,
+                log_time: header.log_time,
+                data: bytes.into_owned(),
+            }),
+            Record::DataEnd(_) => *data = false,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    fn channel(&mut self, c: mcap::records::Channel, out: &mut LogContents) {
+        let schema = self.schemas.get(&c.schema_id);
+        out.topics.entry(c.topic.clone()).or_insert_with(|| TopicInfo {
+            schema: schema.map(|s| s.name.clone()).unwrap_or_default(),
+            schema_encoding: schema.map(|s| s.encoding.clone()).unwrap_or_default(),
+            schema_text: schema.map(|s| s.text.clone()).unwrap_or_default(),
+            message_encoding: c.message_encoding.clone(),
+            count: 0,
+            first_ns: 0,
+            last_ns: 0,
+            digest: FNV_OFFSET,
+            undecodable: 0,
+        });
+        self.channels.insert(c.id, c.topic);
+    }
+
+    fn message(&mut self, h: mcap::records::MessageHeader, data: &[u8], out: &mut LogContents) {
+        let Some(topic) = self.channels.get(&h.channel_id) else { return };
+        let Some(info) = out.topics.get_mut(topic) else { return };
+        if info.count == 0 {
+            info.first_ns = h.log_time;
+        }
+        info.count += 1;
+        info.last_ns = h.log_time;
+        info.digest = fnv_message(info.digest, h.log_time, data);
+        out.messages += 1;
+        let t = h.log_time;
+        fn push<T: DeserializeOwned>(v: &mut Vec<Stamped<T>>, t: u64, data: &[u8]) -> bool {
+            serde_json::from_slice(data).map(|msg| v.push(Stamped { log_time: t, msg })).is_ok()
+        }
+        let ok = match topic.as_str() {
+            topics::DECISION => push(&mut out.decisions, t, data),
+            topics::EMITTED => push(&mut out.emitted, t, data),
+            topics::DELIVERED => push(&mut out.delivered, t, data),
+            topics::TELEPORT => push(&mut out.teleports, t, data),
+            topics::CONTACT => push(&mut out.contacts, t, data),
+            topics::LOG => push(&mut out.notes, t, data),
+            topics::POSE => serde_json::from_slice::<m::PoseInFrame>(data)
+                .map(|p| {
+                    let q = p.pose.orientation;
+                    out.poses.push(PoseStamp {
+                        log_time: t,
+                        x: p.pose.position.x,
+                        y: p.pose.position.y,
+                        theta: q.to_yaw(),
+                    })
+                })
+                .is_ok(),
+            topics::VISITS | topics::VALUE => match serde_json::from_slice::<m::Grid>(data) {
+                Ok(g) => {
+                    let slot = if topic == topics::VISITS { &mut out.last_visits } else { &mut out.last_value };
+                    *slot = Some(Stamped { log_time: t, msg: g });
+                    true
+                }
+                Err(_) => false,
+            },
+            _ => serde_json::from_slice::<serde_json::Value>(data).is_ok(),
+        };
+        if !ok {
+            info.undecodable += 1;
+        }
+    }
+}
