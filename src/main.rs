@@ -1,1 +1,94 @@
-fn main() {}
+//! `mmq`: the command-line interface. The only place that knows clap, anyhow and
+//! progress bars; it maps library errors to one-line messages and exit codes:
+//!
+//! | code | meaning |
+//! |---|---|
+//! | 0 | success |
+//! | 1 | runtime failure (I/O, physics) |
+//! | 2 | usage error (unknown flag, missing argument) |
+//! | 3 | bad input (world file, config, impossible parameter) |
+//! | 130 | interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial |
+
+mod cli;
+mod progress;
+mod run;
+mod world_cmd;
+
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use clap::Parser;
+
+/// Exit codes (see the module docs).
+pub mod exit {
+    /// Runtime failure.
+    pub const RUNTIME: u8 = 1;
+    /// Bad input file or parameter.
+    pub const INPUT: u8 = 3;
+    /// Interrupted; partial outputs written.
+    pub const INTERRUPTED: u8 = 130;
+}
+
+/// An error with its exit code.
+#[derive(Debug)]
+pub struct Failure {
+    /// Exit code.
+    pub code: u8,
+    /// The error.
+    pub error: anyhow::Error,
+}
+
+impl<E: Into<anyhow::Error>> From<E> for Failure {
+    fn from(e: E) -> Self {
+        let error: anyhow::Error = e.into();
+        let code = match error.downcast_ref::<mmq_lab::LabError>() {
+            Some(l) if l.is_input_error() => exit::INPUT,
+            Some(_) => exit::RUNTIME,
+            None if error.downcast_ref::<mmq_core::WorldError>().is_some() => exit::INPUT,
+            None => exit::RUNTIME,
+        };
+        Failure { code, error }
+    }
+}
+
+/// Bad input: exit code 3.
+pub fn input_error(msg: impl std::fmt::Display) -> Failure {
+    Failure { code: exit::INPUT, error: anyhow::anyhow!("{msg}") }
+}
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // SIGINT and SIGTERM (the `termination` feature): ask every loop to stop.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                // A second Ctrl-C ends at once.
+                std::process::exit(i32::from(exit::INTERRUPTED));
+            }
+        });
+    }
+    if let Some(n) = args.threads {
+        let _ = rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global();
+    }
+    let result = match args.command {
+        cli::Command::Run(a) => run::run(a, &stop),
+        cli::Command::World(a) => world_cmd::world(a),
+        cli::Command::Learners => {
+            for (_, name, desc) in mmq_learn::catalogue() {
+                println!("{name:<16} {desc}");
+            }
+            Ok(())
+        }
+    };
+    match result {
+        Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
+        Ok(()) => ExitCode::SUCCESS,
+        Err(f) => {
+            eprintln!("error: {:#}", f.error);
+            ExitCode::from(f.code)
+        }
+    }
+}

@@ -71,6 +71,11 @@ pub struct RunInfo<'a> {
 
 /// Receives the steps of a run.
 pub trait Observer {
+    /// How often the environment should sample poses during a step (simulated seconds;
+    /// `None`: no continuous trace needed).
+    fn trace_period_s(&self) -> Option<f64> {
+        None
+    }
     /// Called once before the first step, with the initial state.
     fn on_start(&mut self, _info: &RunInfo<'_>, _initial_state: State, _sim_time_s: f64) {}
     /// Called after every step.

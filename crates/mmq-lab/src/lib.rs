@@ -1,1 +1,18 @@
-//! x
+//! mmq-lab: run configurations, the runner (one seed: learning, metrics, greedy
+//! evaluation, the undelayed baseline), multi-seed execution in parallel with results
+//! independent of the thread count, outputs (config, summary, metrics, Q-tables) and
+//! the paper's experiments.
+//!
+//! Architecture invariant: the lab reports progress through a callback and stops on a
+//! flag; it never prints, never owns a progress bar and knows no command-line parser.
+
+pub mod config;
+pub mod error;
+pub mod output;
+pub mod runner;
+pub mod summary;
+
+pub use config::{EnvKind, RunConfig};
+pub use error::LabError;
+pub use runner::{Control, SeedResult, run_all, run_seed};
+pub use summary::Summary;

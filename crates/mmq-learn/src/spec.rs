@@ -26,7 +26,7 @@ pub struct Params {
 
 impl Default for Params {
     fn default() -> Self {
-        Self { alpha: 0.1, gamma: 0.9, epsilon: 0.02, q0: 10.0 }
+        Self { alpha: 0.1, gamma: 0.9, epsilon: 0.01, q0: 20.0 }
     }
 }
 

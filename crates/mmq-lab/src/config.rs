@@ -1,0 +1,153 @@
+//! Run configuration: everything a run depends on, resolved and validated before the
+//! run starts, and saved next to its outputs (`config.toml`).
+
+use std::path::PathBuf;
+
+use mmq_core::{DelayDist, World};
+use mmq_learn::{LearnerKind, LearnerSpec};
+use serde::{Deserialize, Serialize};
+
+use crate::error::LabError;
+
+/// Which fidelity of the world.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EnvKind {
+    /// The paper's tabular grid world.
+    Grid,
+    /// The rapier2d differential-drive robot in the same world.
+    Robot,
+}
+
+impl EnvKind {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            EnvKind::Grid => "grid",
+            EnvKind::Robot => "robot",
+        }
+    }
+}
+
+/// A resolved run configuration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// World file.
+    pub world: PathBuf,
+    /// Environment fidelity.
+    pub env: EnvKind,
+    /// The learner and its hyper-parameters.
+    pub learner: LearnerSpec,
+    /// Reward delay distribution spec (see `mmq_core::delay`), e.g. `poisson:13`.
+    pub delay: String,
+    /// Decision steps per seed (paper: 150,000).
+    pub steps: u64,
+    /// First master seed; seed i of the run is `seed + i`.
+    pub seed: u64,
+    /// Number of seeds.
+    pub seeds: u64,
+    /// Steps per row of the learning curves in `metrics.csv`.
+    pub window: u64,
+    /// Steps of greedy evaluation from `S` after learning (paper: 1000).
+    pub eval_steps: u64,
+    /// Also run undelayed Q-learning with the same world, seed, ε, q0 and horizon, the
+    /// denominator of the relative performance (eq. 3).
+    pub baseline: bool,
+    /// Write the Q-tables as `.npy`.
+    pub save_tables: bool,
+    /// Keep the delay channel's ground-truth ledger (needed by the oracle and logs).
+    pub ledger: bool,
+}
+
+impl Default for RunConfig {
+    fn default() -> Self {
+        Self {
+            world: PathBuf::from("worlds/paper-9x9.toml"),
+            env: EnvKind::Grid,
+            learner: LearnerSpec::default(),
+            delay: "poisson:13".into(),
+            steps: 150_000,
+            seed: 0,
+            seeds: 1,
+            window: 1000,
+            eval_steps: 1000,
+            baseline: true,
+            save_tables: true,
+            ledger: false,
+        }
+    }
+}
+
+/// Largest number of decision steps accepted per seed.
+pub const MAX_STEPS: u64 = 10_000_000_000;
+
+impl RunConfig {
+    /// Checks everything that can be checked without the world, and parses the delay.
+    pub fn validate(&self) -> Result<DelayDist, LabError> {
+        if self.steps == 0 || self.steps > MAX_STEPS {
+            return Err(LabError::param(
+                "--steps",
+                self.steps,
+                "use a number of decision steps in 1..=10^10, e.g. 150000",
+            ));
+        }
+        if self.seeds == 0 || self.seeds > 1_000_000 {
+            return Err(LabError::param("--seeds", self.seeds, "use a number of seeds in 1..=1000000"));
+        }
+        if self.window == 0 {
+            return Err(LabError::param("--window", self.window, "use a window of at least 1 step"));
+        }
+        if self.eval_steps > MAX_STEPS {
+            return Err(LabError::param("--eval-steps", self.eval_steps, "use at most 10^10 steps"));
+        }
+        self.learner.validate()?;
+        Ok(DelayDist::parse(&self.delay)?)
+    }
+
+    /// The learner of the undelayed baseline: Q-learning with the same parameters.
+    pub fn baseline_learner(&self) -> LearnerSpec {
+        LearnerSpec { kind: LearnerKind::Q, ..self.learner.clone() }
+    }
+
+    /// Loads the world file.
+    pub fn load_world(&self) -> Result<World, LabError> {
+        Ok(World::load(&self.world)?)
+    }
+
+    /// The configuration as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot serialise config: {e}\n"))
+    }
+
+    /// Parses a configuration from TOML text; `file` names it in errors.
+    pub fn from_toml(text: &str, file: &str) -> Result<RunConfig, LabError> {
+        toml::from_str(text)
+            .map_err(|e| LabError::Config { file: file.into(), message: e.message().trim().into() })
+    }
+
+    /// The master seeds of this run.
+    pub fn seed_list(&self) -> Vec<u64> {
+        (0..self.seeds).map(|i| self.seed.wrapping_add(i)).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_through_toml() {
+        let c = RunConfig::default();
+        assert_eq!(RunConfig::from_toml(&c.to_toml(), "c.toml").unwrap(), c);
+    }
+
+    #[test]
+    fn rejects_impossible_runs() {
+        let mut c = RunConfig { steps: 0, ..RunConfig::default() };
+        assert!(c.validate().unwrap_err().to_string().contains("--steps = 0"));
+        c.steps = 10;
+        c.delay = "poisson:-2".into();
+        assert!(c.validate().unwrap_err().to_string().contains("negative"));
+    }
+}

@@ -1,0 +1,74 @@
+//! Typed errors of the lab; the CLI maps them to messages and exit codes.
+
+use std::path::PathBuf;
+
+/// What can go wrong in a run.
+#[derive(Debug, thiserror::Error)]
+pub enum LabError {
+    /// A world file that cannot be used.
+    #[error(transparent)]
+    World(#[from] mmq_core::WorldError),
+    /// An impossible delay spec.
+    #[error("--delay: {0}")]
+    Delay(#[from] mmq_core::DelayError),
+    /// An impossible learner parameter or tables too large.
+    #[error(transparent)]
+    Learner(#[from] mmq_learn::LearnError),
+    /// An impossible run parameter.
+    #[error("{field} = {value} is not accepted; {accepted}")]
+    InvalidParam {
+        /// The flag or config field.
+        field: String,
+        /// The value given.
+        value: String,
+        /// What is accepted.
+        accepted: String,
+    },
+    /// A configuration file that cannot be read.
+    #[error("{file}: {message}")]
+    Config {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The environment failed during the run.
+    #[error("seed {seed}: {source}")]
+    Env {
+        /// Which seed.
+        seed: u64,
+        /// The failure.
+        source: mmq_core::EnvError,
+    },
+    /// The environment could not be built.
+    #[error("{0}")]
+    EnvBuild(String),
+    /// Writing an output failed.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The failure.
+        source: std::io::Error,
+    },
+}
+
+impl LabError {
+    /// Whether the error comes from user input (exit code 3) rather than the run (1).
+    pub fn is_input_error(&self) -> bool {
+        matches!(
+            self,
+            LabError::World(_)
+                | LabError::Delay(_)
+                | LabError::Learner(_)
+                | LabError::InvalidParam { .. }
+                | LabError::Config { .. }
+                | LabError::EnvBuild(_)
+        )
+    }
+
+    /// An invalid parameter error.
+    pub fn param(field: &str, value: impl ToString, accepted: &str) -> Self {
+        LabError::InvalidParam { field: field.into(), value: value.to_string(), accepted: accepted.into() }
+    }
+}

@@ -1,0 +1,518 @@
+//! The runner: one seed of learning (environment → delay channel → learner), its
+//! metrics, the greedy evaluation and the undelayed baseline; and many seeds in
+//! parallel, in seed order, so results never depend on the thread count.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use mmq_core::{
+    DelayDist, DelayedReward, Env, Event, Observer, Optimum, RunInfo, SeedTree, Start, StepRecord, StepTrace,
+    Stream, World,
+};
+use mmq_grid::GridEnv;
+use mmq_learn::policy::probabilistic;
+use mmq_learn::{Experience, Learner, LearnerSpec, Table, Truth};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{EnvKind, RunConfig};
+use crate::error::LabError;
+
+/// How a run is steered from outside: a stop flag (Ctrl-C) and a progress callback.
+#[derive(Clone, Copy)]
+pub struct Control<'a> {
+    /// Set to stop every seed at its next check (every 1024 steps).
+    pub stop: &'a AtomicBool,
+    /// Called with the number of decision steps just completed (in chunks).
+    pub progress: &'a (dyn Fn(u64) + Sync),
+}
+
+impl std::fmt::Debug for Control<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Control").field("stop", &self.stop.load(Ordering::Relaxed)).finish()
+    }
+}
+
+/// Builds a per-seed observer (an MCAP recorder, say), or none.
+pub type ObserverFactory<'a> = dyn Fn(u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> + Sync + 'a;
+
+const CHECK_EVERY: u64 = 1024;
+
+/// One row of a learning curve: totals over the window ending at `step`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CurveRow {
+    /// Steps completed at the end of the window.
+    pub step: u64,
+    /// Reward emitted in the window.
+    pub earned: f64,
+    /// Reward delivered in the window.
+    pub received: f64,
+    /// Reward emitted since the start.
+    pub earned_cum: f64,
+    /// Reward delivered since the start.
+    pub received_cum: f64,
+}
+
+/// What one learning trajectory produced.
+#[derive(Clone, Debug, Default)]
+pub struct Trajectory {
+    /// Steps completed (less than asked when interrupted).
+    pub steps_done: u64,
+    /// Total reward emitted.
+    pub earned_total: f64,
+    /// Total reward delivered.
+    pub received_total: f64,
+    /// Counts of step outcomes: moved, wall, goal, timeout.
+    pub events: [u64; 4],
+    /// The learning curve.
+    pub curve: Vec<CurveRow>,
+    /// Visits of every state during learning.
+    pub visits: Vec<u64>,
+}
+
+/// The result of one seed.
+#[derive(Clone, Debug)]
+pub struct SeedResult {
+    /// Master seed.
+    pub seed: u64,
+    /// Whether all steps ran (false after Ctrl-C).
+    pub complete: bool,
+    /// The learner's trajectory under delay.
+    pub run: Trajectory,
+    /// Average reward per step of the greedy policy from `S` (no exploration, no updates).
+    pub greedy_per_step: f64,
+    /// The first states of the greedy evaluation, from `S`.
+    pub greedy_path: Vec<usize>,
+    /// Greedy actions of every state as a bit set (all maximisers), 0 for blocked cells.
+    pub policy_arrows: Vec<u8>,
+    /// The probabilistic policy (normalised eq. 8) of every state.
+    pub policy_probs: Vec<Vec<f64>>,
+    /// max_a of the acting values per state (for value maps).
+    pub values: Vec<f64>,
+    /// Learner-specific figures.
+    pub learner_metrics: Vec<(String, f64)>,
+    /// Environment figures (robot physics).
+    pub env_stats: Vec<(String, f64)>,
+    /// The learner's tables (when asked for).
+    pub tables: Vec<Table>,
+    /// Undelayed Q-learning on the same world, seed and horizon (when asked for).
+    pub baseline: Option<Trajectory>,
+    /// Baseline greedy evaluation.
+    pub baseline_greedy_per_step: Option<f64>,
+    /// Wall-clock seconds of this seed.
+    pub wall_time_s: f64,
+}
+
+impl SeedResult {
+    /// Relative performance (eq. 3 without its stray 1/t): cumulative earned reward under
+    /// delay ÷ that of the undelayed baseline.
+    pub fn relative(&self) -> Option<f64> {
+        let b = self.baseline.as_ref()?;
+        Some(self.run.earned_total / b.earned_total)
+    }
+
+    /// Earned reward per step.
+    pub fn earned_per_step(&self) -> f64 {
+        self.run.earned_total / self.run.steps_done.max(1) as f64
+    }
+}
+
+/// Per-run facts handed to observers and recorded in summaries.
+pub fn run_facts(cfg: &RunConfig) -> Vec<(String, String)> {
+    let mut f = vec![
+        ("mmq_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
+        ("env".to_string(), cfg.env.name().to_string()),
+        ("grid_step_period_s".to_string(), mmq_grid::STEP_PERIOD_S.to_string()),
+    ];
+    if cfg.env == EnvKind::Robot {
+        f.push(("robot".into(), "see robot facts".into()));
+    }
+    f
+}
+
+/// Runs one seed: learning under delay, greedy evaluation, then the baseline.
+pub fn run_seed(
+    cfg: &RunConfig,
+    world: &World,
+    dist: &DelayDist,
+    seed: u64,
+    observer: Option<Box<dyn Observer + Send>>,
+    ctl: Control<'_>,
+    mem_limit: u128,
+) -> Result<SeedResult, LabError> {
+    match cfg.env {
+        EnvKind::Grid => run_seed_on(cfg, dist, seed, observer, ctl, mem_limit, || Ok(GridEnv::new(world))),
+        EnvKind::Robot => Err(LabError::EnvBuild(
+            "--env robot: the robot environment is not built into this binary yet".into(),
+        )),
+    }
+}
+
+/// [`run_seed`] on environments made by `make`.
+pub fn run_seed_on<E: Env>(
+    cfg: &RunConfig,
+    dist: &DelayDist,
+    seed: u64,
+    mut observer: Option<Box<dyn Observer + Send>>,
+    ctl: Control<'_>,
+    mem_limit: u128,
+    make: impl Fn() -> Result<E, LabError>,
+) -> Result<SeedResult, LabError> {
+    let clock = Instant::now();
+    let env = make()?;
+    let mut learner = cfg.learner.build(env.num_states(), env.num_actions(), mem_limit)?;
+    let seeds = SeedTree::new(seed);
+    let config_toml = cfg.to_toml();
+    let facts = run_facts(cfg);
+    let (run, env) = learn(
+        env,
+        &mut *learner,
+        dist,
+        cfg,
+        seeds,
+        observer.as_mut(),
+        ctl,
+        Some((&config_toml, &facts)),
+        cfg.learner.kind.name(),
+    )?;
+    let complete = run.steps_done == cfg.steps;
+    let mut env = env;
+    let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, cfg.eval_steps, seeds, seed)?;
+    let env_stats = env.stats();
+    let (policy_arrows, policy_probs, values) = policy_of(&env, &*learner);
+    if let Some(o) = observer.as_mut() {
+        o.on_finish(run.steps_done, complete);
+    }
+    let (mut baseline, mut baseline_greedy) = (None, None);
+    if cfg.baseline && complete {
+        let spec = cfg.baseline_learner();
+        let env = make()?;
+        let mut base = spec.build(env.num_states(), env.num_actions(), mem_limit)?;
+        let (traj, mut env) = learn(env, &mut *base, &DelayDist::None, cfg, seeds, None, ctl, None, "q")?;
+        if traj.steps_done == cfg.steps {
+            baseline_greedy = Some(evaluate(&mut env, &*base, cfg.eval_steps, seeds, seed)?.0);
+            baseline = Some(traj);
+        }
+    }
+    let complete = complete && (!cfg.baseline || baseline.is_some());
+    Ok(SeedResult {
+        seed,
+        complete,
+        run,
+        greedy_per_step,
+        greedy_path,
+        policy_arrows,
+        policy_probs,
+        values,
+        learner_metrics: learner.metrics(),
+        env_stats,
+        tables: if cfg.save_tables { learner.tables() } else { Vec::new() },
+        baseline,
+        baseline_greedy_per_step: baseline_greedy,
+        wall_time_s: clock.elapsed().as_secs_f64(),
+    })
+}
+
+/// The learning loop of one trajectory.
+#[allow(clippy::too_many_arguments)]
+fn learn<E: Env>(
+    env: E,
+    learner: &mut dyn Learner,
+    dist: &DelayDist,
+    cfg: &RunConfig,
+    seeds: SeedTree,
+    mut observer: Option<&mut Box<dyn Observer + Send>>,
+    ctl: Control<'_>,
+    info: Option<(&str, &[(String, String)])>,
+    learner_name: &str,
+) -> Result<(Trajectory, E), LabError> {
+    let needs_truth = learner.needs_truth();
+    let ledger = cfg.ledger || needs_truth || observer.is_some();
+    let mut ch = DelayedReward::new(env, dist, ledger);
+    let seed = seeds.master();
+    let env_err = |source| LabError::Env { seed, source };
+    let mut s =
+        ch.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay), Start::World).map_err(env_err)?;
+    let mut rng = seeds.rng(Stream::Explore);
+    let n_states = ch.env().num_states();
+    let mut traj = Trajectory { visits: vec![0; n_states], ..Trajectory::default() };
+    let mut trace = StepTrace::default();
+    let mut truth = Truth::default();
+    if let Some(o) = observer.as_mut() {
+        ch.env_mut().set_trace(o.trace_period_s());
+        let names = ch.env().action_names();
+        let (config_toml, facts) = info.unwrap_or(("", &[]));
+        let world = ch.env().world().clone();
+        let run_info = RunInfo {
+            world: &world,
+            seed,
+            learner: learner_name,
+            action_names: &names,
+            config_toml,
+            env_kind: cfg.env.name(),
+            facts,
+        };
+        o.on_start(&run_info, s, ch.env().sim_time_s());
+    }
+    let table_every = (cfg.steps / 10).max(1);
+    let (mut w_earned, mut w_received) = (0.0, 0.0);
+    let mut pending_progress = 0u64;
+    for t in 0..cfg.steps {
+        if t % CHECK_EVERY == 0 && t > 0 {
+            (ctl.progress)(pending_progress);
+            pending_progress = 0;
+            if ctl.stop.load(Ordering::Relaxed) {
+                break;
+            }
+        }
+        let d = learner.act(s, &mut rng);
+        let st = ch.step(d.action).map_err(env_err)?;
+        if needs_truth {
+            let l = ch.ledger().expect("ledger kept for learners that need truth");
+            truth.emitted_now = st.delay.map(|_| st.step.reward);
+            truth.delivered.clear();
+            truth
+                .delivered
+                .extend(ch.delivered_ids().iter().filter_map(|&i| l.get(i)).map(|e| (e.t_emit, e.value)));
+        }
+        learner.observe(&Experience {
+            t,
+            state: s,
+            action: d.action,
+            next_state: st.step.state,
+            reward: st.delivered,
+            truth: needs_truth.then_some(&truth),
+        });
+        traj.visits[s] += 1;
+        traj.events[event_index(st.step.event)] += 1;
+        traj.earned_total += st.step.reward;
+        traj.received_total += st.delivered;
+        w_earned += st.step.reward;
+        w_received += st.delivered;
+        traj.steps_done = t + 1;
+        pending_progress += 1;
+        if let Some(o) = observer.as_mut() {
+            ch.env_mut().take_trace(&mut trace);
+            o.on_step(&StepRecord {
+                t,
+                state: s,
+                action: d.action,
+                model: d.model,
+                explored: d.explored,
+                next_state: st.step.state,
+                emitted: st.step.reward,
+                event: st.step.event,
+                delay: st.delay,
+                delivered: st.delivered,
+                delivered_ids: ch.delivered_ids(),
+                ledger: ch.ledger(),
+                sim_time_s: ch.env().sim_time_s(),
+                trace: &trace,
+            });
+            if (t + 1) % table_every == 0 {
+                let (visits, values) = cell_tables(ch.env(), &*learner, &traj.visits);
+                o.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);
+            }
+        }
+        if (t + 1) % cfg.window == 0 {
+            traj.curve.push(CurveRow {
+                step: t + 1,
+                earned: w_earned,
+                received: w_received,
+                earned_cum: traj.earned_total,
+                received_cum: traj.received_total,
+            });
+            w_earned = 0.0;
+            w_received = 0.0;
+        }
+        s = st.step.state;
+    }
+    (ctl.progress)(pending_progress);
+    if !traj.steps_done.is_multiple_of(cfg.window) {
+        traj.curve.push(CurveRow {
+            step: traj.steps_done,
+            earned: w_earned,
+            received: w_received,
+            earned_cum: traj.earned_total,
+            received_cum: traj.received_total,
+        });
+    }
+    Ok((traj, ch.into_inner()))
+}
+
+fn event_index(e: Event) -> usize {
+    match e {
+        Event::Moved => 0,
+        Event::WallBump => 1,
+        Event::Teleport => 2,
+        Event::TimedOut => 3,
+    }
+}
+
+/// Per-cell visit counts and greedy values for maps and logs.
+fn cell_tables<E: Env>(env: &E, learner: &dyn Learner, visits: &[u64]) -> (Vec<f64>, Vec<f64>) {
+    let cells = env.world().num_cells();
+    let mut v = vec![0.0; cells];
+    let mut val = vec![f64::NAN; cells];
+    let mut buf = vec![0.0; env.num_actions()];
+    for (s, &n) in visits.iter().enumerate() {
+        let c = env.state_cell(s);
+        v[c] += n as f64;
+        if env.world().is_free(c) {
+            learner.action_values(s, &mut buf);
+            let m = buf.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            val[c] = if val[c].is_nan() { m } else { val[c].max(m) };
+        }
+    }
+    (v, val)
+}
+
+/// Greedy evaluation: `steps` steps of the greedy policy from `S`, no exploration and no
+/// updates; returns the average emitted reward per step and the first states visited.
+pub fn evaluate<E: Env>(
+    env: &mut E,
+    learner: &dyn Learner,
+    steps: u64,
+    seeds: SeedTree,
+    seed: u64,
+) -> Result<(f64, Vec<usize>), LabError> {
+    if steps == 0 {
+        return Ok((f64::NAN, Vec::new()));
+    }
+    let env_err = |source| LabError::Env { seed, source };
+    env.set_trace(None);
+    let mut s = env.reset(seeds.seed(Stream::Eval), Start::Respawn).map_err(env_err)?;
+    let mut rng = seeds.rng(Stream::Eval);
+    let mut total = 0.0;
+    let mut path = vec![s];
+    for _ in 0..steps {
+        let a = learner.greedy(s, &mut rng);
+        let st = env.step(a).map_err(env_err)?;
+        total += st.reward;
+        s = st.state;
+        if path.len() < 200 {
+            path.push(s);
+        }
+    }
+    Ok((total / steps as f64, path))
+}
+
+/// Deterministic (bit set of maximisers) and probabilistic policies per state.
+fn policy_of<E: Env>(env: &E, learner: &dyn Learner) -> (Vec<u8>, Vec<Vec<f64>>, Vec<f64>) {
+    let n = env.num_states();
+    let na = env.num_actions();
+    let mut arrows = vec![0u8; n];
+    let mut probs = vec![vec![0.0; na]; n];
+    let mut values = vec![f64::NAN; n];
+    let mut buf = vec![0.0; na];
+    for s in 0..n {
+        if !env.world().is_free(env.state_cell(s)) {
+            continue;
+        }
+        learner.action_values(s, &mut buf);
+        let m = buf.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        values[s] = m;
+        for (a, &q) in buf.iter().enumerate().take(8) {
+            if q == m {
+                arrows[s] |= 1 << a;
+            }
+        }
+        probs[s] = probabilistic(&buf);
+    }
+    (arrows, probs, values)
+}
+
+/// Memory available for tables: MemAvailable from /proc/meminfo (or 8 GiB), shared by
+/// `parallel` seeds running at once.
+pub fn memory_limit(parallel: usize) -> u128 {
+    let avail = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|m| {
+            m.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u128>().ok())
+        })
+        .map_or(8u128 << 30, |kb| kb * 1024);
+    // Half of what is free, divided among the seeds that run at once (each holds the
+    // learner's and the baseline's tables).
+    avail / 2 / parallel.max(1) as u128
+}
+
+/// The result of many seeds.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// Results in seed order (only seeds that started).
+    pub results: Vec<SeedResult>,
+    /// Whether the run was stopped early.
+    pub interrupted: bool,
+}
+
+/// Runs every seed of `cfg` in parallel (rayon), results in seed order.
+pub fn run_all(
+    cfg: &RunConfig,
+    world: &World,
+    observers: &ObserverFactory<'_>,
+    ctl: Control<'_>,
+) -> Result<RunOutcome, LabError> {
+    let dist = cfg.validate()?;
+    let seeds = cfg.seed_list();
+    let parallel = rayon::current_num_threads().min(seeds.len());
+    let limit = memory_limit(parallel);
+    // Refuse before allocating anything.
+    {
+        let (n_s, n_a) = (world.num_cells(), 4);
+        let (entries, bytes) = cfg.learner.table_bytes(n_s, n_a);
+        if bytes > limit {
+            return Err(mmq_learn::LearnError::TooLarge {
+                learner: cfg.learner.kind.name(),
+                entries,
+                need_gib: bytes as f64 / (1u128 << 30) as f64,
+                limit_gib: limit as f64 / (1u128 << 30) as f64,
+            }
+            .into());
+        }
+    }
+    let results: Vec<Result<Option<SeedResult>, LabError>> = seeds
+        .par_iter()
+        .map(|&seed| {
+            if ctl.stop.load(Ordering::Relaxed) {
+                return Ok(None);
+            }
+            let obs = observers(seed)?;
+            run_seed(cfg, world, &dist, seed, obs, ctl, limit).map(Some)
+        })
+        .collect();
+    let mut out = Vec::new();
+    for r in results {
+        if let Some(r) = r? {
+            out.push(r);
+        }
+    }
+    let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
+    Ok(RunOutcome { results: out, interrupted })
+}
+
+/// The exact optimum of the world (re-exported for summaries).
+pub fn optimum_of(world: &World) -> Optimum {
+    mmq_core::optimum(world)
+}
+
+/// A spec of the learner, for reports.
+pub fn describe(spec: &LearnerSpec) -> String {
+    let p = spec.params;
+    format!(
+        "{} (α = {}, γ = {}, ε = {}, q0 = {}{})",
+        spec.kind.name(),
+        p.alpha,
+        p.gamma,
+        p.epsilon,
+        p.q0,
+        match spec.kind {
+            mmq_learn::LearnerKind::Fixed => format!(", λ̂ = {}", spec.lambda_hat),
+            mmq_learn::LearnerKind::Mmq | mmq_learn::LearnerKind::MmqReference =>
+                format!(", λ̂max = {}", spec.max_delay),
+            _ => String::new(),
+        }
+    )
+}

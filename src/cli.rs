@@ -1,0 +1,125 @@
+//! Command-line flags (stage one: raw flags; `run.rs` resolves them into a validated
+//! `RunConfig`).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Learning when rewards arrive late: Multiple-Model Q-learning on the paper's grid
+/// worlds and on a rapier2d robot.
+#[derive(Debug, Parser)]
+#[command(name = "mmq", version, about, propagate_version = true)]
+pub struct Cli {
+    /// Worker threads for seeds run in parallel (default: all cores). Results do not
+    /// depend on it.
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run one learner on one world for several seeds; writes config, summary, metrics
+    /// and Q-tables into --out.
+    Run(RunArgs),
+    /// Check or show world files.
+    World(WorldArgs),
+    /// List the learners, one a line, name first.
+    Learners,
+}
+
+/// Environment fidelity.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum EnvArg {
+    /// The paper's tabular grid world.
+    Grid,
+    /// The rapier2d differential-drive robot.
+    Robot,
+}
+
+/// Flags of `mmq run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// World file (TOML).
+    #[arg(long, default_value = "worlds/paper-9x9.toml")]
+    pub world: PathBuf,
+    /// Environment fidelity.
+    #[arg(long, value_enum, default_value = "grid")]
+    pub env: EnvArg,
+    /// Learner (see `mmq learners`).
+    #[arg(long, default_value = "mmq")]
+    pub learner: String,
+    /// Reward delay: none, const:K, poisson:L, geometric:P, uniform:LO:HI, hist:W0,W1,..., mix:P1*SPEC1+P2*SPEC2.
+    #[arg(long, default_value = "poisson:13")]
+    pub delay: String,
+    /// λ̂max of MMQ (N = λ̂max + 1 models).
+    #[arg(long, default_value_t = 50)]
+    pub max_delay: usize,
+    /// λ̂ of the fixed-delay learner.
+    #[arg(long, default_value_t = 13)]
+    pub lambda_hat: usize,
+    /// Learning rate α ∈ [0, 1].
+    #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
+    pub alpha: f64,
+    /// Discount factor γ ∈ [0, 1).
+    #[arg(long, default_value_t = 0.9, allow_negative_numbers = true)]
+    pub gamma: f64,
+    /// ε of ε-greedy exploration, in [0, 1].
+    #[arg(long, default_value_t = 0.01, allow_negative_numbers = true)]
+    pub epsilon: f64,
+    /// Initial Q value (optimistic initialisation).
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    pub q0: f64,
+    /// Decision steps per seed.
+    #[arg(long, default_value_t = 150_000)]
+    pub steps: u64,
+    /// Number of seeds (run in parallel).
+    #[arg(long, default_value_t = 1)]
+    pub seeds: u64,
+    /// First master seed (seed i is SEED + i).
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Steps per row of the learning curves.
+    #[arg(long, default_value_t = 1000)]
+    pub window: u64,
+    /// Steps of greedy evaluation from S after learning.
+    #[arg(long, default_value_t = 1000)]
+    pub eval_steps: u64,
+    /// Skip the undelayed Q-learning baseline (no relative performance).
+    #[arg(long)]
+    pub no_baseline: bool,
+    /// Do not write the Q-tables.
+    #[arg(long)]
+    pub no_tables: bool,
+    /// Output directory.
+    #[arg(long, short, default_value = "runs/latest")]
+    pub out: PathBuf,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// `mmq world`.
+#[derive(Debug, Args)]
+pub struct WorldArgs {
+    #[command(subcommand)]
+    pub action: WorldAction,
+}
+
+/// What to do with world files.
+#[derive(Debug, Subcommand)]
+pub enum WorldAction {
+    /// Validate world files; one line per file.
+    Check {
+        /// World files.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Show the map, the optimal policy as arrows and the optimal average reward.
+    Show {
+        /// World file.
+        file: PathBuf,
+    },
+}
