@@ -1,0 +1,817 @@
+//! Line charts: several series (optionally with a 95 % confidence band and markers) and
+//! dashed horizontal reference lines, with a legend placed where it hides the least data.
+
+use std::path::{Path, PathBuf};
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, VPos};
+
+use crate::PlotError;
+use crate::render::{
+    DrawResult, Figure, INK, Ink, PALETTE, REF_COLORS, fmt_log_tick, fmt_tick, log_ticks, nice_ticks,
+    text_size, write_figure,
+};
+
+/// Figure size in pixels.
+const SIZE: (u32, u32) = (800, 560);
+/// Font sizes (plotters size units, logical pixels).
+const TITLE_FONT: f64 = 24.0;
+const DESC_FONT: f64 = 20.0;
+const TICK_FONT: f64 = 17.0;
+const LEGEND_FONT: f64 = 16.0;
+
+/// One curve of a [`LineChart`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Series {
+    /// Legend entry (an empty name gives no entry).
+    pub name: String,
+    /// x values, in the unit of the chart's `x_label`.
+    pub x: Vec<f64>,
+    /// y values, one per x. Non-finite values leave a gap in the line.
+    pub y: Vec<f64>,
+    /// Lower and upper edge of a band drawn translucently behind the line (e.g. a 95 %
+    /// confidence interval), one value each per x.
+    pub band: Option<(Vec<f64>, Vec<f64>)>,
+    /// Draw a marker at every point (for sparse x such as a sweep over λ).
+    pub markers: bool,
+}
+
+impl Series {
+    /// A plain line.
+    pub fn new(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
+        Self { name: name.into(), x, y, band: None, markers: false }
+    }
+
+    /// The same series with a band from `lower` to `upper`.
+    pub fn with_band(mut self, lower: Vec<f64>, upper: Vec<f64>) -> Self {
+        self.band = Some((lower, upper));
+        self
+    }
+
+    /// The same series with markers.
+    pub fn with_markers(mut self) -> Self {
+        self.markers = true;
+        self
+    }
+}
+
+/// A dashed horizontal line at `y` with a legend entry (e.g. "undelayed Q-learning = 1").
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RefLine {
+    /// Legend entry.
+    pub label: String,
+    /// Height, in the unit of the chart's `y_label`.
+    pub y: f64,
+}
+
+impl RefLine {
+    /// A reference line.
+    pub fn new(label: impl Into<String>, y: f64) -> Self {
+        Self { label: label.into(), y }
+    }
+}
+
+/// A line chart (800 × 560 px): series, bands, markers, reference lines, legend.
+///
+/// Labels should carry their units, e.g. `"mean delay λ (steps)"`. Colours follow the
+/// Okabe–Ito colour-blind-safe palette in series order; markers also change shape per
+/// series so the chart survives grey-scale printing.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LineChart {
+    /// Title above the chart (may be empty).
+    pub title: String,
+    /// x-axis label with unit.
+    pub x_label: String,
+    /// y-axis label with unit.
+    pub y_label: String,
+    /// The curves, drawn in order (first at the bottom).
+    pub series: Vec<Series>,
+    /// Dashed horizontal reference lines.
+    pub ref_lines: Vec<RefLine>,
+    /// Fixed y range (lower, upper); `None` fits the data, bands and reference lines.
+    /// Data outside a fixed range is clipped.
+    pub y_range: Option<(f64, f64)>,
+    /// Logarithmic x axis (non-positive x values are left out).
+    pub x_log: bool,
+}
+
+impl LineChart {
+    /// An empty chart with a title and axis labels.
+    pub fn new(title: impl Into<String>, x_label: impl Into<String>, y_label: impl Into<String>) -> Self {
+        Self { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), ..Self::default() }
+    }
+
+    /// Writes `<base>.svg` and `<base>.png`; returns both paths.
+    pub fn write(&self, base: &Path) -> Result<Vec<PathBuf>, PlotError> {
+        write_figure(self, base)
+    }
+
+    /// x in plot space (log10 for a log axis), if drawable.
+    fn px(&self, x: f64) -> Option<f64> {
+        if !x.is_finite() {
+            None
+        } else if self.x_log {
+            (x > 0.0).then(|| x.log10())
+        } else {
+            Some(x)
+        }
+    }
+
+    fn prepare(&self) -> Prepared {
+        let mut xs = Vec::new();
+        let mut ys = Vec::new();
+        let mut markers = false;
+        for s in &self.series {
+            markers |= s.markers;
+            for (i, (&x, &y)) in s.x.iter().zip(&s.y).enumerate() {
+                let Some(x) = self.px(x) else { continue };
+                let mut any = false;
+                if y.is_finite() {
+                    ys.push(y);
+                    any = true;
+                }
+                if let Some((lo, hi)) = &s.band {
+                    for v in [lo.get(i), hi.get(i)].into_iter().flatten() {
+                        if v.is_finite() {
+                            ys.push(*v);
+                            any = true;
+                        }
+                    }
+                }
+                if any {
+                    xs.push(x);
+                }
+            }
+        }
+        ys.extend(self.ref_lines.iter().map(|r| r.y).filter(|y| y.is_finite()));
+
+        let (x0, x1) = match min_max(&xs) {
+            None => (0.0, 1.0),
+            Some((a, b)) if b - a <= 1e-12 * a.abs().max(1.0) => {
+                if self.x_log {
+                    (a - 0.5, a + 0.5)
+                } else {
+                    (a - a.abs().max(1.0) * 0.1, a + a.abs().max(1.0) * 0.1)
+                }
+            }
+            Some((a, b)) => {
+                let pad = if markers { 0.03 * (b - a) } else { 0.0 };
+                (a - pad, b + pad)
+            }
+        };
+        let (y0, y1) = match (self.y_range, min_max(&ys)) {
+            (Some(r), _) => r,
+            (None, None) => (0.0, 1.0),
+            (None, Some((a, b))) if b - a <= 1e-12 * a.abs().max(1.0) => {
+                let d = if a == 0.0 { 1.0 } else { a.abs() * 0.1 };
+                (a - d, b + d)
+            }
+            (None, Some((a, b))) => (a - 0.05 * (b - a), b + 0.05 * (b - a)),
+        };
+        let (x_ticks, x_minor, x_step) = if self.x_log {
+            let (b, m) = log_ticks(x0, x1);
+            (b, m, f64::NAN)
+        } else {
+            let (t, s) = nice_ticks(x0, x1, 7);
+            (t, Vec::new(), s)
+        };
+        let (y_ticks, y_step) = nice_ticks(y0, y1, 6);
+        Prepared { x: (x0, x1), y: (y0, y1), x_ticks, x_minor, x_step, y_ticks, y_step, empty: xs.is_empty() }
+    }
+
+    fn x_tick_label(&self, p: &Prepared, v: f64) -> String {
+        if self.x_log { fmt_log_tick(v) } else { fmt_tick(v, p.x_step) }
+    }
+
+    /// Polylines of a series in plot space, split at missing values and clipped to the
+    /// plot rectangle.
+    fn lines(&self, s: &Series, p: &Prepared) -> Vec<Vec<(f64, f64)>> {
+        let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+        let mut prev: Option<(f64, f64)> = None;
+        for (&x, &y) in s.x.iter().zip(&s.y) {
+            let pt = match self.px(x) {
+                Some(x) if y.is_finite() => Some((x, y)),
+                _ => None,
+            };
+            match (prev, pt) {
+                (Some(a), Some(b)) => {
+                    if let Some((c, d)) = clip_segment(a, b, p.x, p.y) {
+                        match out.last_mut() {
+                            Some(line) if line.last() == Some(&c) => line.push(d),
+                            _ => out.push(vec![c, d]),
+                        }
+                    }
+                }
+                (None, Some(b)) if inside(b, p) => out.push(vec![b]),
+                _ => {}
+            }
+            prev = pt;
+        }
+        out
+    }
+
+    /// Band polygons in plot space, split at missing values, clamped to the y range.
+    fn bands(&self, s: &Series, p: &Prepared) -> Vec<Vec<(f64, f64)>> {
+        let Some((lo, hi)) = &s.band else { return Vec::new() };
+        let mut runs: Vec<Vec<(f64, f64, f64)>> = vec![Vec::new()];
+        for ((&x, &l), &h) in s.x.iter().zip(lo).zip(hi) {
+            match self.px(x) {
+                Some(x) if l.is_finite() && h.is_finite() && x >= p.x.0 && x <= p.x.1 => {
+                    let c = |v: f64| v.clamp(p.y.0, p.y.1);
+                    runs.last_mut().expect("non-empty").push((x, c(l.min(h)), c(l.max(h))));
+                }
+                _ => runs.push(Vec::new()),
+            }
+        }
+        runs.into_iter()
+            .filter(|r| r.len() >= 2)
+            .map(|r| {
+                r.iter().map(|&(x, _, h)| (x, h)).chain(r.iter().rev().map(|&(x, l, _)| (x, l))).collect()
+            })
+            .collect()
+    }
+}
+
+/// A linear axis in plot space with the ticks chosen here (plotters' own f64 axis picks
+/// its ticks and cannot be labelled by a formatter once they are given).
+struct Axis {
+    range: (f64, f64),
+    bold: Vec<f64>,
+    light: Vec<f64>,
+}
+
+impl Ranged for Axis {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        let f = (v - self.range.0) / (self.range.1 - self.range.0);
+        limit.0 + (f64::from(limit.1 - limit.0) * f).round() as i32
+    }
+
+    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        if hint.weight().allow_light_points() { self.light.clone() } else { self.bold.clone() }
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.range.0..self.range.1
+    }
+}
+
+/// Ranges, ticks and whether there is anything to draw.
+struct Prepared {
+    x: (f64, f64),
+    y: (f64, f64),
+    x_ticks: Vec<f64>,
+    x_minor: Vec<f64>,
+    x_step: f64,
+    y_ticks: Vec<f64>,
+    y_step: f64,
+    empty: bool,
+}
+
+fn inside((x, y): (f64, f64), p: &Prepared) -> bool {
+    x >= p.x.0 && x <= p.x.1 && y >= p.y.0 && y <= p.y.1
+}
+
+fn min_max(v: &[f64]) -> Option<(f64, f64)> {
+    let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// The part of segment a–b inside the rectangle (Liang–Barsky), if any.
+fn clip_segment(
+    a: (f64, f64),
+    b: (f64, f64),
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Option<((f64, f64), (f64, f64))> {
+    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+    let (mut t0, mut t1) = (0.0f64, 1.0f64);
+    for (p, q) in [(-dx, a.0 - x0), (dx, x1 - a.0), (-dy, a.1 - y0), (dy, y1 - a.1)] {
+        if p == 0.0 {
+            if q < 0.0 {
+                return None;
+            }
+        } else {
+            let r = q / p;
+            if p < 0.0 {
+                t0 = t0.max(r);
+            } else {
+                t1 = t1.min(r);
+            }
+        }
+    }
+    if t0 > t1 {
+        return None;
+    }
+    let at = |t: f64| {
+        if t == 0.0 {
+            a
+        } else if t == 1.0 {
+            b
+        } else {
+            (a.0 + t * dx, a.1 + t * dy)
+        }
+    };
+    Some((at(t0), at(t1)))
+}
+
+/// Marker shapes, one per series (cycled).
+#[derive(Clone, Copy)]
+enum Marker {
+    Circle,
+    Square,
+    Triangle,
+    Diamond,
+    TriangleDown,
+}
+
+const MARKERS: [Marker; 5] =
+    [Marker::Circle, Marker::Square, Marker::Triangle, Marker::Diamond, Marker::TriangleDown];
+
+fn draw_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    m: Marker,
+    (x, y): (i32, i32),
+    r: i32,
+    color: RGBColor,
+    ink: Ink,
+) -> DrawResult<DB> {
+    let fill = color.filled();
+    let edge = WHITE.stroke_width(ink.pu(1.0));
+    let poly = |pts: Vec<(i32, i32)>| -> DrawResult<DB> {
+        area.draw(&Polygon::new(pts.clone(), fill))?;
+        let mut closed = pts;
+        closed.push(closed[0]);
+        area.draw(&PathElement::new(closed, edge))
+    };
+    match m {
+        Marker::Circle => {
+            area.draw(&Circle::new((x, y), r, fill))?;
+            area.draw(&Circle::new((x, y), r, edge))
+        }
+        Marker::Square => {
+            let s = (f64::from(r) * 0.85) as i32;
+            poly(vec![(x - s, y - s), (x + s, y - s), (x + s, y + s), (x - s, y + s)])
+        }
+        Marker::Triangle => {
+            let s = f64::from(r) * 1.2;
+            let (h, w) = ((s * 0.9) as i32, (s * 1.05) as i32);
+            poly(vec![(x, y - h), (x + w, y + h * 3 / 4), (x - w, y + h * 3 / 4)])
+        }
+        Marker::TriangleDown => {
+            let s = f64::from(r) * 1.2;
+            let (h, w) = ((s * 0.9) as i32, (s * 1.05) as i32);
+            poly(vec![(x, y + h), (x + w, y - h * 3 / 4), (x - w, y - h * 3 / 4)])
+        }
+        Marker::Diamond => {
+            let s = (f64::from(r) * 1.25) as i32;
+            poly(vec![(x, y - s), (x + s, y), (x, y + s), (x - s, y)])
+        }
+    }
+}
+
+/// One legend row.
+enum Entry {
+    Series { name: String, color: RGBColor, band: bool, marker: Option<Marker>, dashed: bool },
+    Ref { label: String, color: RGBColor },
+}
+
+impl Entry {
+    fn text(&self) -> &str {
+        match self {
+            Entry::Series { name, .. } => name,
+            Entry::Ref { label, .. } => label,
+        }
+    }
+}
+
+/// Legend geometry (logical pixels).
+const LEGEND_PAD: f64 = 10.0;
+const LEGEND_SYMBOL: f64 = 34.0;
+
+fn legend_row_h() -> f64 {
+    text_size("Ag", LEGEND_FONT).1.max(LEGEND_FONT) + 7.0
+}
+
+/// Where everything of a line chart goes, in logical pixels.
+struct Plan {
+    title_h: f64,
+    margin_left: f64,
+    margin_right: f64,
+    /// Plot rectangle.
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    y_area: f64,
+    x_area: f64,
+    tick_w: f64,
+    tick_h: f64,
+    entries: Vec<Entry>,
+    /// Legend box: top-left corner and size.
+    legend: Option<((f64, f64), (f64, f64))>,
+}
+
+/// Gap between a tick mark's end and its label; tick length.
+const TICK_LEN: f64 = 6.0;
+const TICK_GAP: f64 = 4.0;
+const MARGIN_TOP: f64 = 8.0;
+const MARGIN_BOTTOM: f64 = 8.0;
+
+impl LineChart {
+    fn color(i: usize) -> RGBColor {
+        PALETTE[i % PALETTE.len()]
+    }
+
+    fn entries(&self) -> Vec<Entry> {
+        let mut entries = Vec::new();
+        for (i, s) in self.series.iter().enumerate() {
+            if !s.name.is_empty() {
+                entries.push(Entry::Series {
+                    name: s.name.clone(),
+                    color: Self::color(i),
+                    band: s.band.is_some(),
+                    marker: s.markers.then_some(MARKERS[i % MARKERS.len()]),
+                    dashed: i >= PALETTE.len(),
+                });
+            }
+        }
+        for (i, r) in self.ref_lines.iter().enumerate() {
+            if !r.label.is_empty() {
+                entries.push(Entry::Ref { label: r.label.clone(), color: REF_COLORS[i % REF_COLORS.len()] });
+            }
+        }
+        entries
+    }
+
+    fn plan(&self, p: &Prepared) -> Plan {
+        let (w, h) = (f64::from(SIZE.0), f64::from(SIZE.1));
+        let title_h = if self.title.is_empty() { 6.0 } else { text_size(&self.title, TITLE_FONT).1 + 22.0 };
+        let tick_w =
+            p.y_ticks.iter().map(|&v| text_size(&fmt_tick(v, p.y_step), TICK_FONT).0).fold(0.0, f64::max);
+        let tick_h = text_size("0", TICK_FONT).1;
+        let y_desc = if self.y_label.is_empty() { 0.0 } else { text_size(&self.y_label, DESC_FONT).1 + 10.0 };
+        let x_desc = if self.x_label.is_empty() { 0.0 } else { text_size(&self.x_label, DESC_FONT).1 + 10.0 };
+        let y_area = TICK_LEN + TICK_GAP + tick_w + y_desc + 4.0;
+        let x_area = TICK_LEN + TICK_GAP + tick_h + x_desc + 4.0;
+        let margin_left = 10.0;
+        let mut margin_right = 30.0;
+        let entries = self.entries();
+        let mut plan = Plan {
+            title_h,
+            margin_left,
+            margin_right,
+            x0: margin_left + y_area,
+            x1: w - margin_right,
+            y0: title_h + MARGIN_TOP,
+            y1: h - MARGIN_BOTTOM - x_area,
+            y_area,
+            x_area,
+            tick_w,
+            tick_h,
+            entries,
+            legend: None,
+        };
+        if plan.entries.is_empty() {
+            return plan;
+        }
+        let text_w = plan.entries.iter().map(|e| text_size(e.text(), LEGEND_FONT).0).fold(0.0, f64::max);
+        let lw = LEGEND_PAD + LEGEND_SYMBOL + 8.0 + text_w + LEGEND_PAD;
+        let lh = LEGEND_PAD * 0.7 * 2.0 + legend_row_h() * plan.entries.len() as f64;
+
+        // Data samples in logical pixels of the plot rectangle.
+        let to_px = |(x, y): (f64, f64)| {
+            (
+                plan.x0 + (x - p.x.0) / (p.x.1 - p.x.0) * (plan.x1 - plan.x0),
+                plan.y1 - (y - p.y.0) / (p.y.1 - p.y.0) * (plan.y1 - plan.y0),
+            )
+        };
+        let mut samples = Vec::new();
+        for s in &self.series {
+            for line in self.lines(s, p) {
+                samples.push(to_px(line[0]));
+                for seg in line.windows(2) {
+                    let (a, b) = (to_px(seg[0]), to_px(seg[1]));
+                    let n = ((b.0 - a.0).hypot(b.1 - a.1) / 3.0).ceil().clamp(1.0, 400.0) as usize;
+                    for k in 1..=n {
+                        let t = k as f64 / n as f64;
+                        samples.push((a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1)));
+                    }
+                }
+            }
+            for poly in self.bands(s, p) {
+                samples.extend(poly.iter().map(|&q| to_px(q)));
+            }
+            if s.markers {
+                for (&x, &y) in s.x.iter().zip(&s.y) {
+                    if let Some(x) = self.px(x)
+                        && inside((x, y), p)
+                    {
+                        samples.push(to_px((x, y)));
+                    }
+                }
+            }
+        }
+        for r in &self.ref_lines {
+            if r.y.is_finite() && r.y >= p.y.0 && r.y <= p.y.1 {
+                for k in 0..=200 {
+                    samples.push(to_px((p.x.0 + (p.x.1 - p.x.0) * f64::from(k) / 200.0, r.y)));
+                }
+            }
+        }
+        let inset = 10.0;
+        let xs = [plan.x1 - inset - lw, plan.x0 + inset, (plan.x0 + plan.x1 - lw) / 2.0];
+        let ys = [plan.y0 + inset, plan.y1 - inset - lh, (plan.y0 + plan.y1 - lh) / 2.0];
+        // Corners first, then edge middles; never the centre.
+        let order = [(0, 0), (1, 0), (0, 1), (1, 1), (0, 2), (1, 2), (2, 0), (2, 1)];
+        let score = |(x, y): (f64, f64)| {
+            let m = 4.0;
+            samples
+                .iter()
+                .filter(|s| s.0 >= x - m && s.0 <= x + lw + m && s.1 >= y - m && s.1 <= y + lh + m)
+                .count()
+        };
+        let fits = lw < (plan.x1 - plan.x0) * 0.6 && lh < (plan.y1 - plan.y0) * 0.8;
+        let best = order.iter().map(|&(i, j)| (xs[i], ys[j])).map(|c| (score(c), c)).min_by_key(|&(s, _)| s);
+        match best {
+            Some((0, corner)) if fits => plan.legend = Some((corner, (lw, lh))),
+            _ => {
+                // No empty spot inside: put the legend right of the plot.
+                margin_right = 16.0 + lw + 16.0;
+                plan.margin_right = margin_right;
+                plan.x1 = w - margin_right;
+                plan.legend = Some(((plan.x1 + 16.0, plan.y0), (lw, lh)));
+            }
+        }
+        plan
+    }
+}
+
+impl Figure for LineChart {
+    fn validate(&self) -> Result<(), String> {
+        for (i, s) in self.series.iter().enumerate() {
+            let name =
+                if s.name.is_empty() { format!("series {}", i + 1) } else { format!("series `{}`", s.name) };
+            if s.x.len() != s.y.len() {
+                return Err(format!("{name}: x has {} values but y has {}", s.x.len(), s.y.len()));
+            }
+            if let Some((lo, hi)) = &s.band
+                && (lo.len() != s.x.len() || hi.len() != s.x.len())
+            {
+                return Err(format!(
+                    "{name}: the band has {} lower and {} upper values but x has {}",
+                    lo.len(),
+                    hi.len(),
+                    s.x.len()
+                ));
+            }
+        }
+        if let Some((lo, hi)) = self.y_range
+            && !(lo.is_finite() && hi.is_finite() && lo < hi)
+        {
+            return Err(format!("y_range ({lo}, {hi}) must be two finite numbers, lower < upper"));
+        }
+        Ok(())
+    }
+
+    fn size(&self) -> (u32, u32) {
+        SIZE
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, ink: Ink) -> DrawResult<DB> {
+        root.fill(&WHITE)?;
+        let p = self.prepare();
+        let plan = self.plan(&p);
+
+        if !self.title.is_empty() {
+            let pos = (ink.p(f64::from(SIZE.0) / 2.0), ink.p(12.0));
+            ink.label(root, &self.title, TITLE_FONT, INK, (HPos::Center, VPos::Top), false, pos)?;
+        }
+
+        let x_spec = Axis { range: p.x, bold: p.x_ticks.clone(), light: p.x_minor.clone() };
+        let y_spec = Axis { range: p.y, bold: p.y_ticks.clone(), light: Vec::new() };
+        let mut chart = ChartBuilder::on(root)
+            .margin_top(ink.p(plan.title_h + MARGIN_TOP))
+            .margin_left(ink.p(plan.margin_left))
+            .margin_right(ink.p(plan.margin_right))
+            .margin_bottom(ink.p(MARGIN_BOTTOM))
+            .x_label_area_size(ink.p(plan.x_area))
+            .y_label_area_size(ink.p(plan.y_area))
+            .build_cartesian_2d(x_spec, y_spec)?;
+        // Grid lines only: ticks, labels and axis titles are drawn below, by `Ink::label`.
+        chart
+            .configure_mesh()
+            .disable_axes()
+            .label_style(ink.font(TICK_FONT).color(&TRANSPARENT))
+            .bold_line_style(RGBColor(0, 0, 0).mix(0.12).stroke_width(ink.pu(1.0)))
+            .light_line_style(RGBColor(0, 0, 0).mix(0.05).stroke_width(ink.pu(1.0)))
+            .draw()?;
+
+        // Bands first, then reference lines, then lines, then markers on top.
+        for (i, s) in self.series.iter().enumerate() {
+            for poly in self.bands(s, &p) {
+                chart.draw_series(std::iter::once(Polygon::new(poly, Self::color(i).mix(0.22).filled())))?;
+            }
+        }
+        for (i, r) in self.ref_lines.iter().enumerate() {
+            if r.y.is_finite() && r.y >= p.y.0 && r.y <= p.y.1 {
+                let c = REF_COLORS[i % REF_COLORS.len()];
+                chart.draw_series(DashedLineSeries::new(
+                    vec![(p.x.0, r.y), (p.x.1, r.y)],
+                    ink.p(9.0),
+                    ink.p(6.0),
+                    c.stroke_width(ink.pu(1.8)),
+                ))?;
+            }
+        }
+        for (i, s) in self.series.iter().enumerate() {
+            let style = Self::color(i).stroke_width(ink.pu(2.5));
+            for line in self.lines(s, &p) {
+                if line.len() < 2 {
+                    continue;
+                }
+                if i >= PALETTE.len() {
+                    chart.draw_series(DashedLineSeries::new(line, ink.p(12.0), ink.p(5.0), style))?;
+                } else {
+                    chart.draw_series(LineSeries::new(line, style))?;
+                }
+            }
+        }
+        for (i, s) in self.series.iter().enumerate() {
+            let lines = self.lines(s, &p);
+            // A lone point between gaps is invisible as a line: give it a marker.
+            let pts: Vec<(f64, f64)> = if s.markers {
+                s.x.iter()
+                    .zip(&s.y)
+                    .filter_map(|(&x, &y)| Some((self.px(x)?, y)))
+                    .filter(|&q| q.1.is_finite() && inside(q, &p))
+                    .collect()
+            } else {
+                lines.into_iter().filter(|l| l.len() == 1).map(|l| l[0]).collect()
+            };
+            for q in pts {
+                draw_marker(
+                    root,
+                    MARKERS[i % MARKERS.len()],
+                    chart.backend_coord(&q),
+                    ink.p(5.0),
+                    Self::color(i),
+                    ink,
+                )?;
+            }
+        }
+
+        // Frame, ticks, tick labels, axis titles.
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let (fx0, fx1, fy0, fy1) = (xr.start, xr.end - 1, yr.start, yr.end - 1);
+        root.draw(&Rectangle::new([(fx0, fy0), (fx1, fy1)], INK.stroke_width(ink.pu(1.2))))?;
+        let tick = INK.stroke_width(ink.pu(1.2));
+        let tl = ink.p(TICK_LEN);
+        for &v in &p.x_ticks {
+            let x = chart.backend_coord(&(v, p.y.0)).0;
+            root.draw(&PathElement::new(vec![(x, fy1), (x, fy1 + tl)], tick))?;
+            let pos = (x, fy1 + tl + ink.p(TICK_GAP));
+            ink.label(
+                root,
+                &self.x_tick_label(&p, v),
+                TICK_FONT,
+                INK,
+                (HPos::Center, VPos::Top),
+                false,
+                pos,
+            )?;
+        }
+        for &v in &p.x_minor {
+            let x = chart.backend_coord(&(v, p.y.0)).0;
+            root.draw(&PathElement::new(vec![(x, fy1), (x, fy1 + tl / 2)], tick))?;
+        }
+        for &v in &p.y_ticks {
+            let y = chart.backend_coord(&(p.x.0, v)).1;
+            root.draw(&PathElement::new(vec![(fx0 - tl, y), (fx0, y)], tick))?;
+            let pos = (fx0 - tl - ink.p(TICK_GAP), y);
+            ink.label(root, &fmt_tick(v, p.y_step), TICK_FONT, INK, (HPos::Right, VPos::Center), false, pos)?;
+        }
+        let xy = fy1 + tl + ink.p(TICK_GAP + plan.tick_h + 10.0);
+        ink.label(
+            root,
+            &self.x_label,
+            DESC_FONT,
+            INK,
+            (HPos::Center, VPos::Top),
+            false,
+            ((fx0 + fx1) / 2, xy),
+        )?;
+        let desc_h = text_size(&self.y_label, DESC_FONT).1;
+        let yx = fx0 - tl - ink.p(TICK_GAP + plan.tick_w + 10.0 + desc_h / 2.0);
+        ink.label(
+            root,
+            &self.y_label,
+            DESC_FONT,
+            INK,
+            (HPos::Center, VPos::Center),
+            true,
+            (yx, (fy0 + fy1) / 2),
+        )?;
+
+        if p.empty && self.ref_lines.is_empty() {
+            let c = ((fx0 + fx1) / 2, (fy0 + fy1) / 2);
+            ink.label(
+                root,
+                "no data",
+                DESC_FONT,
+                RGBColor(120, 120, 120),
+                (HPos::Center, VPos::Center),
+                false,
+                c,
+            )?;
+        }
+        if let Some(((x, y), (w, h))) = plan.legend {
+            draw_legend(root, &plan.entries, (x, y, w, h), ink)?;
+        }
+        Ok(())
+    }
+}
+
+/// Draws the legend box at (x, y) of size (w, h), logical pixels.
+fn draw_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    entries: &[Entry],
+    (x, y, w, h): (f64, f64, f64, f64),
+    ink: Ink,
+) -> DrawResult<DB> {
+    let r = [(ink.p(x), ink.p(y)), (ink.p(x + w), ink.p(y + h))];
+    root.draw(&Rectangle::new(r, WHITE.filled()))?;
+    root.draw(&Rectangle::new(r, RGBColor(150, 150, 150).stroke_width(ink.pu(1.0))))?;
+    let row_h = legend_row_h();
+    for (i, e) in entries.iter().enumerate() {
+        let cy = ink.p(y + LEGEND_PAD * 0.7 + row_h * (i as f64 + 0.5));
+        let sx0 = ink.p(x + LEGEND_PAD);
+        let sx1 = ink.p(x + LEGEND_PAD + LEGEND_SYMBOL);
+        let dashes = |color: &RGBColor, width: f64, seg: f64, gap: f64| -> DrawResult<DB> {
+            let style = color.stroke_width(ink.pu(width));
+            let mut a = sx0;
+            while a < sx1 {
+                root.draw(&PathElement::new(vec![(a, cy), ((a + ink.p(seg)).min(sx1), cy)], style))?;
+                a += ink.p(seg + gap);
+            }
+            Ok(())
+        };
+        match e {
+            Entry::Series { color, band, marker, dashed, .. } => {
+                if *band {
+                    let half = ink.p(row_h * 0.33);
+                    root.draw(&Rectangle::new(
+                        [(sx0, cy - half), (sx1, cy + half)],
+                        color.mix(0.22).filled(),
+                    ))?;
+                }
+                if *dashed {
+                    dashes(color, 2.5, 12.0, 5.0)?;
+                } else {
+                    root.draw(&PathElement::new(
+                        vec![(sx0, cy), (sx1, cy)],
+                        color.stroke_width(ink.pu(2.5)),
+                    ))?;
+                }
+                if let Some(m) = marker {
+                    draw_marker(root, *m, ((sx0 + sx1) / 2, cy), ink.p(5.0), *color, ink)?;
+                }
+            }
+            Entry::Ref { color, .. } => dashes(color, 1.8, 9.0, 6.0)?,
+        }
+        let pos = (sx1 + ink.p(8.0), cy);
+        ink.label(root, e.text(), LEGEND_FONT, INK, (HPos::Left, VPos::Center), false, pos)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn clipping_keeps_inside_parts() {
+        let r = ((0.0, 1.0), (0.0, 1.0));
+        assert_eq!(clip_segment((0.2, 0.2), (0.8, 0.8), r.0, r.1), Some(((0.2, 0.2), (0.8, 0.8))));
+        assert_eq!(clip_segment((0.0, 0.5), (1.0, 1.5), r.0, r.1), Some(((0.0, 0.5), (0.5, 1.0))));
+        assert_eq!(clip_segment((0.0, 2.0), (1.0, 2.0), r.0, r.1), None);
+    }
+
+    #[test]
+    fn lines_split_at_gaps_and_range() {
+        let c = LineChart {
+            series: vec![Series::new("a", vec![0.0, 1.0, 2.0, 3.0, 4.0], vec![0.0, 1.0, f64::NAN, 1.0, 5.0])],
+            y_range: Some((0.0, 2.0)),
+            ..LineChart::default()
+        };
+        let p = c.prepare();
+        let l = c.lines(&c.series[0], &p);
+        assert_eq!(l.len(), 2);
+        assert_eq!(l[0], vec![(0.0, 0.0), (1.0, 1.0)]);
+        assert_eq!(l[1], vec![(3.0, 1.0), (3.25, 2.0)]);
+    }
+}
