@@ -9,7 +9,8 @@ use crate::cli::{WorldAction, WorldArgs};
 pub fn world(args: WorldArgs) -> Result<(), Failure> {
     match args.action {
         WorldAction::Check { files } => {
-            let mut bad = None;
+            let mut bad = 0;
+            let total = files.len();
             for f in files {
                 match World::load(&f) {
                     Ok(w) => {
@@ -26,14 +27,14 @@ pub fn world(args: WorldArgs) -> Result<(), Failure> {
                     }
                     Err(e) => {
                         eprintln!("error: {e}");
-                        bad = Some(e);
+                        bad += 1;
                     }
                 }
             }
-            match bad {
-                Some(e) => Err(e.into()),
-                None => Ok(()),
+            if bad > 0 {
+                return Err(crate::input_error(format!("{bad} of {total} world files are invalid")));
             }
+            Ok(())
         }
         WorldAction::Show { file } => {
             let w = World::load(&file)?;
