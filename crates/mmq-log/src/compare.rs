@@ -18,7 +18,8 @@ pub struct Mismatch {
     pub topic: String,
     /// Index of the message on that topic.
     pub index: usize,
-    /// Decision step of the message (for poses: of the decision before it), if known.
+    /// Decision step of the message (for poses: of the last decision before it), if
+    /// known.
     pub step: Option<u64>,
     /// Simulated time of the message, ns.
     pub log_time: u64,
@@ -119,10 +120,14 @@ pub fn compare(a: &LogContents, b: &LogContents) -> Result<(), Mismatch> {
         theta: f64,
     }
     let poses = |l: &LogContents| -> Vec<Stamped<P>> {
-        l.poses.iter().map(|p| Stamped { log_time: p.log_time, msg: P { x: p.x, y: p.y, theta: p.theta } }).collect()
+        l.poses
+            .iter()
+            .map(|p| Stamped { log_time: p.log_time, msg: P { x: p.x, y: p.y, theta: p.theta } })
+            .collect()
     };
     let step_at = |time: u64| {
-        let i = a.decisions.partition_point(|d| d.log_time <= time);
+        // The step a pose belongs to: the last decision taken before it.
+        let i = a.decisions.partition_point(|d| d.log_time < time);
         i.checked_sub(1).map(|i| a.decisions[i].msg.t)
     };
     let found = [

@@ -5,7 +5,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::fs::File;
-use std::io::{BufReader, Read};
+use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 
 use mcap::records::Record;
@@ -180,6 +180,12 @@ pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
     let file = File::open(path).map_err(|e| io_err("open the log", e))?;
     let file_len = file.metadata().map_err(|e| io_err("read the log", e))?.len();
     let mut input = BufReader::with_capacity(1 << 16, file);
+    // A file that does not start like an MCAP file is not a damaged log but another file.
+    let head = input.fill_buf().map_err(|e| io_err("read the log", e))?;
+    let n = head.len().min(mcap::MAGIC.len());
+    if head[..n] != mcap::MAGIC[..n] {
+        return Err(LogError::NotMcap { path: path.to_path_buf() });
+    }
     let mut out = LogContents { path: path.to_path_buf(), file_len, ..Default::default() };
     let mut st = State::default();
     let mut reader = LinearReader::new_with_options(
@@ -210,9 +216,10 @@ pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
             }
             Ok(LinearReadEvent::Record { opcode, data }) => {
                 let len = 9 + data.len() as u64;
+                let raw = (opcode, data);
                 let result = mcap::parse_record(opcode, data)
                     .map_err(|e| e.to_string())
-                    .and_then(|rec| st.top_level(rec, &mut out, &mut in_data_section));
+                    .and_then(|rec| st.top_level(rec, raw, &mut out, &mut in_data_section));
                 if let Err(reason) = result {
                     break Some(reason);
                 }
@@ -230,6 +237,12 @@ pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
                 } else {
                     "the file ends in the middle of a record (truncated)".to_string()
                 });
+            }
+            Err(mcap::McapError::RecordTooLarge { opcode, len: u64::MAX })
+                if opcode == mcap::records::op::CHUNK =>
+            {
+                // The writer gives a chunk its length when it closes it.
+                break Some("the file ends in an unfinished chunk (the run was not finished)".to_string());
             }
             Err(e) => break Some(e.to_string()),
         }
@@ -260,28 +273,16 @@ enum Pending {
 }
 
 impl State {
-    fn top_level(&mut self, rec: Record<'_>, out: &mut LogContents, data: &mut bool) -> Result<(), String> {
+    fn top_level(
+        &mut self,
+        rec: Record<'_>,
+        raw: (u8, &[u8]),
+        out: &mut LogContents,
+        data: &mut bool,
+    ) -> Result<(), String> {
         match rec {
-            Record::Chunk { header, data: bytes } => {
-                // Decode the whole chunk first: a damaged chunk is dropped whole.
-                let mut pending = Vec::new();
-                let reader = mcap::read::ChunkReader::new(header, &bytes).map_err(|e| e.to_string())?;
-                for inner in reader {
-                    match inner.map_err(|e| format!("damaged chunk: {e}"))? {
-                        Record::Schema { header, data } => pending.push(Pending::Schema(
-                            header.id,
-                            SchemaRec {
-                                name: header.name,
-                                encoding: header.encoding,
-                                text: String::from_utf8_lossy(&data).into_owned(),
-                            },
-                        )),
-                        Record::Channel(c) => pending.push(Pending::Channel(c)),
-                        Record::Message { header, data } => pending.push(Pending::Message(header, data.into_owned())),
-                        _ => {}
-                    }
-                }
-                for p in pending {
+            Record::Chunk { .. } => {
+                for p in read_chunk(raw)? {
                     match p {
                         Pending::Schema(id, s) => {
                             self.schemas.insert(id, s);
@@ -293,7 +294,8 @@ impl State {
             }
             Record::Schema { header, data: bytes } if *data => {
                 let text = String::from_utf8_lossy(&bytes).into_owned();
-                self.schemas.insert(header.id, SchemaRec { name: header.name, encoding: header.encoding, text });
+                self.schemas
+                    .insert(header.id, SchemaRec { name: header.name, encoding: header.encoding, text });
             }
             Record::Channel(c) if *data => self.channel(c, out),
             Record::Message { header, data: bytes } if *data => self.message(header, &bytes, out),
@@ -362,7 +364,8 @@ impl State {
                 .is_ok(),
             topics::VISITS | topics::VALUE => match serde_json::from_slice::<m::Grid>(data) {
                 Ok(g) => {
-                    let slot = if topic == topics::VISITS { &mut out.last_visits } else { &mut out.last_value };
+                    let slot =
+                        if topic == topics::VISITS { &mut out.last_visits } else { &mut out.last_value };
                     *slot = Some(Stamped { log_time: t, msg: g });
                     true
                 }
@@ -374,4 +377,56 @@ impl State {
             info.undecodable += 1;
         }
     }
+}
+
+/// Largest uncompressed chunk accepted: a damaged size field must not make the reader
+/// allocate without bound.
+fn chunk_limit(compressed_len: usize) -> usize {
+    compressed_len.saturating_mul(64).clamp(64 << 20, 1 << 30)
+}
+
+/// Decodes one chunk record (`opcode`, body) with the crate's own linear reader, which
+/// checks the chunk's CRC before yielding anything from it and bounds every buffer.
+fn read_chunk((opcode, body): (u8, &[u8])) -> Result<Vec<Pending>, String> {
+    let mut bytes = Vec::with_capacity(9 + body.len());
+    bytes.push(opcode);
+    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    bytes.extend_from_slice(body);
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_skip_start_magic(true)
+            .with_skip_end_magic(true)
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(chunk_limit(body.len())),
+    );
+    let mut input: &[u8] = &bytes;
+    let mut pending = Vec::new();
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| format!("damaged chunk: {e}"))? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = need.min(input.len());
+                reader.insert(n).copy_from_slice(&input[..n]);
+                reader.notify_read(n);
+                input = &input[n..];
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                match mcap::parse_record(opcode, data).map_err(|e| format!("damaged chunk: {e}"))? {
+                    Record::Schema { header, data } => pending.push(Pending::Schema(
+                        header.id,
+                        SchemaRec {
+                            name: header.name,
+                            encoding: header.encoding,
+                            text: String::from_utf8_lossy(&data).into_owned(),
+                        },
+                    )),
+                    Record::Channel(c) => pending.push(Pending::Channel(c)),
+                    Record::Message { header, data } => {
+                        pending.push(Pending::Message(header, data.into_owned()))
+                    }
+                    _ => {}
+                }
+            }
+        }
+    }
+    Ok(pending)
 }

@@ -342,8 +342,12 @@ impl McapRecorder {
     fn write_buf(&mut self, ch: Ch, log_time: u64) {
         let Some(w) = self.writer.as_mut() else { return };
         let i = ch as usize;
-        let header =
-            MessageHeader { channel_id: self.channel_ids[i], sequence: self.sequence[i], log_time, publish_time: log_time };
+        let header = MessageHeader {
+            channel_id: self.channel_ids[i],
+            sequence: self.sequence[i],
+            log_time,
+            publish_time: log_time,
+        };
         if let Err(e) = w.write_to_known_channel(&header, &self.buf) {
             self.fail("write a message", e);
             return;
@@ -394,7 +398,8 @@ impl McapRecorder {
             rotation: m::Quaternion::yaw(theta),
         };
         self.write(Ch::Tf, log_time, &tf);
-        let pose = m::PoseInFrame { timestamp, frame_id: "world".into(), pose: m::Pose::planar(x, y, 0.0, theta) };
+        let pose =
+            m::PoseInFrame { timestamp, frame_id: "world".into(), pose: m::Pose::planar(x, y, 0.0, theta) };
         self.write(Ch::Pose, log_time, &pose);
     }
 
@@ -418,7 +423,8 @@ impl McapRecorder {
         let by_steps = self.config.flush_every_steps > 0
             && steps - self.last_flush_step >= self.config.flush_every_steps;
         // Looking at the clock every 64 steps keeps its cost out of the step loop.
-        let by_time = steps.is_multiple_of(64) && self.config.flush_interval.is_some_and(|d| self.last_flush.elapsed() >= d);
+        let by_time = steps.is_multiple_of(64)
+            && self.config.flush_interval.is_some_and(|d| self.last_flush.elapsed() >= d);
         if by_steps || by_time {
             self.flush();
         }
@@ -534,9 +540,12 @@ fn robot_radius(info: &RunInfo<'_>) -> f64 {
         .iter()
         .find(|(k, _)| matches!(k.as_str(), "robot.radius_m" | "robot_radius_m" | "radius_m"))
         .and_then(|(_, v)| v.parse::<f64>().ok());
-    let from_world = info.world.robot.as_ref().and_then(|t| t.get("radius_m")).and_then(|v| {
-        v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
-    });
+    let from_world = info
+        .world
+        .robot
+        .as_ref()
+        .and_then(|t| t.get("radius_m"))
+        .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)));
     from_facts.or(from_world).filter(|r| r.is_finite() && *r > 0.0).unwrap_or(0.3 * info.world.cell_size)
 }
 
@@ -644,11 +653,17 @@ impl Observer for McapRecorder {
             .and_then(|(_, v)| v.parse::<f64>().ok())
             .filter(|p| p.is_finite() && *p > 0.0)
             .map(ns);
-        self.period_ns =
-            self.config.step_period_ns.or(fact_period).unwrap_or(RecorderConfig::DEFAULT_STEP_PERIOD_NS).max(1);
+        self.period_ns = self
+            .config
+            .step_period_ns
+            .or(fact_period)
+            .unwrap_or(RecorderConfig::DEFAULT_STEP_PERIOD_NS)
+            .max(1);
         let start_ns = if grid { 0 } else { ns(sim_time_s) };
         self.step_start_s = sim_time_s;
-        self.next_pose_s = sim_time_s;
+        // The start pose is written below; the trace's samples follow one period later.
+        self.next_pose_s =
+            sim_time_s + if self.config.pose_rate_hz > 0.0 { 1.0 / self.config.pose_rate_hz } else { 0.0 };
         let radius = robot_radius(info);
         let ts = m::Time::from_ns(start_ns);
         let arena_json = serde_json::to_vec(&arena_scene(&world, ts)).expect("JSON of a scene");
@@ -677,7 +692,9 @@ impl Observer for McapRecorder {
             ("pose_rate_hz", config.pose_rate_hz.to_string()),
             (
                 "window",
-                config.window.map_or("all".into(), |w| format!("first {} and last {} of {}", w.first, w.last, w.total)),
+                config.window.map_or("all".into(), |w| {
+                    format!("first {} and last {} of {}", w.first, w.last, w.total)
+                }),
             ),
             ("flush_every_steps", config.flush_every_steps.to_string()),
             ("robot_radius_m", radius.to_string()),
@@ -711,7 +728,8 @@ impl Observer for McapRecorder {
                 self.fail("write the run metadata", e);
             }
         }
-        self.run = Some(Run { world, grid, action_names: info.action_names.to_vec(), arena_json, robot_json });
+        self.run =
+            Some(Run { world, grid, action_names: info.action_names.to_vec(), arena_json, robot_json });
         self.write_scenes(start_ns);
         self.heading = 0.0;
         if grid || initial_state < info.world.num_cells() {
@@ -756,7 +774,8 @@ impl Observer for McapRecorder {
         self.stats.steps_seen += 1;
         if recorded {
             self.stats.steps_recorded += 1;
-            let action_name = run.action_names.get(rec.action).cloned().unwrap_or_else(|| rec.action.to_string());
+            let action_name =
+                run.action_names.get(rec.action).cloned().unwrap_or_else(|| rec.action.to_string());
             if (grid || rec.trace.poses.is_empty()) && !self.prev_recorded {
                 // Entering a window: show where the decision is taken.
                 self.write_cell_pose(start_ns, rec.state);
@@ -797,7 +816,12 @@ impl Observer for McapRecorder {
                         rec.delivered_ids
                             .iter()
                             .filter_map(|&id| l.get(id))
-                            .map(|e| m::DeliveredPart { id: e.id, t_emit: e.t_emit, delay: e.delay, value: e.value })
+                            .map(|e| m::DeliveredPart {
+                                id: e.id,
+                                t_emit: e.t_emit,
+                                delay: e.delay,
+                                value: e.value,
+                            })
                             .collect()
                     })
                     .unwrap_or_default();

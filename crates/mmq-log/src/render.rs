@@ -51,7 +51,8 @@ fn segments(log: &LogContents, poses: &[PoseStamp], cell: f64) -> Vec<Vec<PoseSt
     for &p in poses {
         if let Some(q) = cur.last() {
             let jump = (p.x - q.x).hypot(p.y - q.y) > 1.5 * cell;
-            let teleported = tele.partition_point(|&t| t <= q.log_time) < tele.partition_point(|&t| t <= p.log_time);
+            let teleported =
+                tele.partition_point(|&t| t <= q.log_time) < tele.partition_point(|&t| t <= p.log_time);
             let gap = p.log_time.saturating_sub(q.log_time) > 5 * typical;
             if jump || teleported || gap {
                 out.push(std::mem::take(&mut cur));
@@ -93,10 +94,20 @@ pub fn render_svg(log: &LogContents, window: Option<(u64, u64)>) -> Result<Strin
         None => "all recorded steps".to_string(),
     };
     let title = format!("{} · {} · seed {} · {steps}", world.name, fact("learner"), fact("seed"));
-    let _ = writeln!(s, r##"<text x="{margin}" y="{}" font-size="14" fill="#222">{}</text>"##, margin + 14.0, esc(&title));
+    let _ = writeln!(
+        s,
+        r##"<text x="{margin}" y="{}" font-size="14" fill="#222">{}</text>"##,
+        margin + 14.0,
+        esc(&title)
+    );
     // Floor and cell lines.
     let (x0, y0) = (sx(0.0), sy(h * cs));
-    let _ = writeln!(s, r##"<rect x="{x0:.1}" y="{y0:.1}" width="{:.1}" height="{:.1}" fill="#f4f4ef"/>"##, w * px, h * px);
+    let _ = writeln!(
+        s,
+        r##"<rect x="{x0:.1}" y="{y0:.1}" width="{:.1}" height="{:.1}" fill="#f4f4ef"/>"##,
+        w * px,
+        h * px
+    );
     let _ = write!(s, r##"<path stroke="#dddddd" stroke-width="0.5" d=""##);
     for i in 1..world.width {
         let _ = write!(s, "M{:.1} {y0:.1}V{:.1}", x0 + i as f64 * px, y0 + h * px);
@@ -118,7 +129,8 @@ pub fn render_svg(log: &LogContents, window: Option<(u64, u64)>) -> Result<Strin
         } else {
             continue;
         };
-        let _ = writeln!(s, r#"<rect x="{x:.1}" y="{y:.1}" width="{px:.1}" height="{px:.1}" fill="{fill}"/>"#);
+        let _ =
+            writeln!(s, r#"<rect x="{x:.1}" y="{y:.1}" width="{px:.1}" height="{px:.1}" fill="{fill}"/>"#);
         if world.is_free(c) {
             let label = if c == world.goal { "G" } else { "S" };
             let _ = writeln!(

@@ -108,7 +108,11 @@ impl fmt::Display for LogSummary {
         writeln!(f, "  steps:      {} ({ended}), {} decisions recorded", self.steps, self.decisions)?;
         writeln!(f, "  duration:   {:.3} s simulated", self.duration_s)?;
         writeln!(f, "  emitted:    {} rewards recorded, sum {}", self.emitted_count, self.emitted_sum)?;
-        writeln!(f, "  delivered:  {} deliveries recorded, sum {}", self.delivered_count, self.delivered_sum)?;
+        writeln!(
+            f,
+            "  delivered:  {} deliveries recorded, sum {}",
+            self.delivered_count, self.delivered_sum
+        )?;
         if let (Some(e), Some(d)) = (self.emitted_total, self.delivered_total) {
             writeln!(f, "  run totals: emitted {e}, delivered {d}, in flight {}", e - d)?;
         }

@@ -1,0 +1,8 @@
+//! Integration tests of mmq-log, one module per topic.
+
+mod common;
+mod compare;
+mod render;
+mod roundtrip;
+mod schemas;
+mod truncation;
