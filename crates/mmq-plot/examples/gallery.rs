@@ -101,6 +101,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     c.series.push(Series::new("nothing", vec![], vec![]));
     written.extend(c.write(&dir.join("empty"))?);
 
+    // Gaps, a fixed y range that clips, a lone point, all-NaN series.
+    let nan = f64::NAN;
+    let mut c = LineChart::new("Gaps and clipping", "x (steps)", "y");
+    c.series.push(Series::new(
+        "gaps",
+        (0..12).map(f64::from).collect(),
+        vec![0.1, 0.5, 0.9, nan, 0.4, nan, 0.2, 0.6, 1.4, 0.7, 0.3, -0.5],
+    ));
+    c.series.push(Series::new("all NaN", vec![nan; 3], vec![nan; 3]));
+    c.y_range = Some((0.0, 1.0));
+    written.extend(c.write(&dir.join("gaps"))?);
+
     // Fig. 7: visits, 9×9.
     let w9 = world("paper-9x9");
     let visits: Vec<f64> = (0..81)
@@ -115,9 +127,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .write(&dir.join("fig7-visits"))?,
     );
     written.extend(
-        GridHeatmap::new("Visits, log scale", &w9, visits.iter().map(|v| v * v / 10.0).collect(), "visits")
-            .log()
-            .write(&dir.join("fig7-visits-log"))?,
+        GridHeatmap::new(
+            "Visits, log scale",
+            &w9,
+            visits.iter().enumerate().map(|(i, v)| if i % 10 == 3 { 0.0 } else { v * v / 10.0 }).collect(),
+            "visits",
+        )
+        .log()
+        .write(&dir.join("fig7-visits-log"))?,
     );
 
     // Maze with blocked cells and a no-data cell.
@@ -172,6 +189,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut p3 = vec![[0.25; 4]; 9];
     p3[4] = [f64::NAN, 0.5, 0.5, 0.0];
     written.extend(ActionProbabilities::new("3×3, uniform", &w3, p3).write(&dir.join("probs-3x3"))?);
+
+    // A one-row strip: wide and flat.
+    let strip = mmq_plot::PolicyArrows {
+        title: "Corridor".into(),
+        grid: mmq_plot::GridLayout::open(12, 1),
+        arrows: (0..12).map(|c| 1 << (c % 4)).collect(),
+        highlight_path: vec![],
+    };
+    written.extend(strip.write(&dir.join("strip"))?);
+    let corridor = world("corridor-7x3");
+    let n = corridor.num_cells();
+    written.extend(
+        GridHeatmap::new("Corridor, constant values", &corridor, vec![42.0; n], "visits")
+            .write(&dir.join("corridor-const"))?,
+    );
 
     for p in written {
         println!("{}", p.display());

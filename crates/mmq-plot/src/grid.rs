@@ -135,8 +135,9 @@ pub struct GridHeatmap {
     pub values: Vec<f64>,
     /// Colour-bar label with unit, e.g. `"visits"`.
     pub colorbar_label: String,
-    /// Logarithmic colour scale (for counts spanning decades). Values ≤ 0 get the lowest
-    /// colour; with no positive value the scale falls back to linear.
+    /// Logarithmic colour scale (for counts spanning decades). Cells ≤ 0 are drawn white
+    /// (legend: "≤ 0"), e.g. states never visited; with no positive value the scale
+    /// falls back to linear.
     pub log_scale: bool,
 }
 
@@ -181,18 +182,25 @@ impl GridHeatmap {
 
     fn layout(&self) -> Layout {
         let s = self.scale();
-        let legend = legend_items(&self.grid, self.has_no_data(), false);
-        Layout::new(
-            &self.grid,
-            &self.title,
-            colorbar_width(&s, &self.colorbar_label),
-            0.0,
-            !legend.is_empty(),
-        )
+        let legend = !self.legend().is_empty();
+        Layout::new(&self.grid, &self.title, colorbar_width(&s, &self.colorbar_label), 0.0, legend)
     }
 
     fn has_no_data(&self) -> bool {
         self.values.iter().zip(&self.grid.blocked).any(|(v, &b)| !b && !v.is_finite())
+    }
+
+    /// Whether some free cell is ≤ 0 on a log scale (drawn white).
+    fn has_off_scale(&self, s: &Scale) -> bool {
+        s.log && self.values.iter().zip(&self.grid.blocked).any(|(&v, &b)| !b && v <= 0.0)
+    }
+
+    fn legend(&self) -> Vec<Item> {
+        let mut items = legend_items(&self.grid, self.has_no_data(), false);
+        if self.has_off_scale(&self.scale()) {
+            items.push(Item::NonPositive);
+        }
+        items
     }
 }
 
@@ -286,6 +294,8 @@ struct Scale {
     hi: f64,
     log: bool,
     ticks: Vec<(f64, String)>,
+    /// Unlabelled minor ticks (log scale: 2…9 × 10^k), in scale units.
+    minor: Vec<f64>,
 }
 
 impl Scale {
@@ -295,9 +305,9 @@ impl Scale {
             let lo = pos.iter().copied().fold(f64::INFINITY, f64::min).log10();
             let hi = pos.iter().copied().fold(f64::NEG_INFINITY, f64::max).log10();
             let (lo, hi) = if hi - lo < 1e-9 { (lo - 0.5, hi + 0.5) } else { (lo, hi) };
-            let (major, _) = log_ticks(lo, hi);
+            let (major, minor) = log_ticks(lo, hi);
             let ticks = major.into_iter().map(|l| (l, fmt_log_tick(l))).collect();
-            return Scale { lo, hi, log: true, ticks };
+            return Scale { lo, hi, log: true, ticks, minor };
         }
         let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -310,12 +320,19 @@ impl Scale {
             (lo, hi)
         };
         let (t, step) = nice_ticks(lo, hi, 5);
-        Scale { lo, hi, log: false, ticks: t.into_iter().map(|v| (v, fmt_tick(v, step))).collect() }
+        Scale {
+            lo,
+            hi,
+            log: false,
+            ticks: t.into_iter().map(|v| (v, fmt_tick(v, step))).collect(),
+            minor: vec![],
+        }
     }
 
     fn probability() -> Scale {
         let (t, step) = nice_ticks(0.0, 1.0, 5);
-        Scale { lo: 0.0, hi: 1.0, log: false, ticks: t.into_iter().map(|v| (v, fmt_tick(v, step))).collect() }
+        let ticks = t.into_iter().map(|v| (v, fmt_tick(v, step))).collect();
+        Scale { lo: 0.0, hi: 1.0, log: false, ticks, minor: vec![] }
     }
 
     /// Position of a value in [0, 1] along the scale (ticks are given in scale units:
@@ -471,6 +488,7 @@ enum Item {
     Respawn,
     Blocked,
     NoData,
+    NonPositive,
     Path,
 }
 
@@ -509,6 +527,7 @@ fn draw_bottom_legend<DB: DrawingBackend>(
             Item::Respawn => (None, "respawn"),
             Item::Blocked => (Some(BLOCKED), "blocked"),
             Item::NoData => (Some(NO_DATA), "no data"),
+            Item::NonPositive => (Some(WHITE), "≤ 0 (off the log scale)"),
             Item::Path => (Some(PATH_TINT), "path"),
         };
         match swatch {
@@ -556,6 +575,10 @@ fn draw_colorbar<DB: DrawingBackend>(
         root.draw(&Rectangle::new([(bx0, by0 + i), (bx1, by0 + i + 1)], viridis(t).filled()))?;
     }
     root.draw(&Rectangle::new([(bx0, by0), (bx1, by1)], INK.stroke_width(ink.pu(1.0))))?;
+    for &v in &s.minor {
+        let y = ink.p(y1 - s.t_of_tick(v) * (y1 - y0));
+        root.draw(&PathElement::new(vec![(bx1, y), (bx1 + ink.p(3.0), y)], INK.stroke_width(ink.pu(1.0))))?;
+    }
     let mut tick_w: f64 = 0.0;
     for (v, text) in &s.ticks {
         let t = s.t_of_tick(*v);
@@ -594,6 +617,8 @@ impl Figure for GridHeatmap {
                 BLOCKED
             } else if !self.values[i].is_finite() {
                 NO_DATA
+            } else if s.log && self.values[i] <= 0.0 {
+                WHITE
             } else {
                 viridis(s.t(self.values[i]))
             }
@@ -621,7 +646,7 @@ impl Figure for GridHeatmap {
         }
         let (y0, y1) = (l.top, l.top + l.h as f64 * l.cell);
         draw_colorbar(root, l.panel_x, (y0, y1), &s, &self.colorbar_label, ink)?;
-        draw_bottom_legend(root, &l, &legend_items(&self.grid, self.has_no_data(), false), ink)
+        draw_bottom_legend(root, &l, &self.legend(), ink)
     }
 }
 
@@ -702,7 +727,7 @@ impl Figure for PolicyArrows {
                 }
             }
         }
-        let size = (l.cell * 0.42).clamp(12.0, 26.0);
+        let size = (l.cell * 0.36).clamp(11.0, 24.0);
         for (cell, letter) in [(self.grid.goal, "G"), (self.grid.respawn, "S")] {
             if let Some(c) = cell {
                 let ((x0, y0), _) = l.cell_rect(ink, c);
