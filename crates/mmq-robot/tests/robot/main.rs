@@ -1,0 +1,1 @@
+//! Integration tests of mmq-robot, one module per topic.
