@@ -28,6 +28,59 @@ pub enum Command {
     World(WorldArgs),
     /// List the learners, one a line, name first.
     Learners,
+    /// Reproduce the paper's figures and write a report (report.md, SVG, PNG, CSV).
+    Paper(PaperArgs),
+}
+
+/// Which fidelities `mmq paper` runs Figs. 6–12 on.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum EnvChoice {
+    /// The grid world (all figures).
+    Grid,
+    /// The robot (Figs. 6–12 only).
+    Robot,
+    /// Both, side by side in the report.
+    Both,
+}
+
+impl EnvChoice {
+    /// The command-line name.
+    pub fn name(self) -> &'static str {
+        match self {
+            EnvChoice::Grid => "grid",
+            EnvChoice::Robot => "robot",
+            EnvChoice::Both => "both",
+        }
+    }
+}
+
+/// Flags of `mmq paper`.
+#[derive(Debug, Args)]
+pub struct PaperArgs {
+    /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity) or all; comma-separated.
+    #[arg(long, default_value = "all")]
+    pub fig: String,
+    /// Fidelity for Figs. 6–12: grid, robot or both.
+    #[arg(long, value_enum, default_value = "grid")]
+    pub env: EnvChoice,
+    /// Seeds per setting (default: 20 grid, 5 robot; quick: 4 grid, 2 robot).
+    #[arg(long)]
+    pub seeds: Option<u64>,
+    /// Steps per seed (default: 150,000; quick: 15,000 grid, 600 robot).
+    #[arg(long)]
+    pub steps: Option<u64>,
+    /// First master seed.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Smoke-test budget (a minute or two): every figure, tiny numbers.
+    #[arg(long)]
+    pub quick: bool,
+    /// Output directory.
+    #[arg(long, short, default_value = "report")]
+    pub out: PathBuf,
+    /// No progress bars.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Environment fidelity.

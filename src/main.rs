@@ -10,6 +10,7 @@
 //! | 130 | interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial |
 
 mod cli;
+mod paper;
 mod progress;
 mod run;
 mod world_cmd;
@@ -76,6 +77,7 @@ fn main() -> ExitCode {
     let result = match args.command {
         cli::Command::Run(a) => run::run(a, &stop),
         cli::Command::World(a) => world_cmd::world(a),
+        cli::Command::Paper(a) => paper::paper(a, &stop),
         cli::Command::Learners => {
             for (_, name, desc) in mmq_learn::catalogue() {
                 println!("{name:<16} {desc}");

@@ -9,6 +9,7 @@
 pub mod config;
 pub mod error;
 pub mod output;
+pub mod paper;
 pub mod runner;
 pub mod summary;
 

@@ -1,0 +1,285 @@
+//! The paper's experiments (Sections IV, V and VII), as data: every figure's numbers
+//! with means and 95 % intervals over seeds, and the CSV behind each. Drawing and the
+//! report live in the CLI (`mmq paper`), which owns the plotting crate.
+//!
+//! Parameters the paper leaves open, and our choices (docs/reproduction.md):
+//! ε and q0 (Figs. 2–4: ε = 0.05, q0 = 10; Fig. 6: ε = 0.01, q0 = 20, with a sensitivity
+//! table over three settings), the horizon (150,000 steps everywhere, as Fig. 4 states).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use mmq_core::stats::{MeanCi, mean_ci};
+use mmq_core::{DelayDist, World};
+use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{EnvKind, RunConfig};
+use crate::error::LabError;
+use crate::runner::{Control, SeedResult, Trajectory, memory_limit, run_seed};
+
+/// Options of `mmq paper`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PaperOptions {
+    /// Seeds per setting.
+    pub seeds: u64,
+    /// Decision steps per seed.
+    pub steps: u64,
+    /// First master seed.
+    pub seed: u64,
+    /// Fidelity for Figs. 6–12.
+    pub env: EnvKind,
+    /// Directory holding the world files.
+    pub worlds: PathBuf,
+    /// Steps per curve point.
+    pub window: u64,
+}
+
+impl PaperOptions {
+    /// The paper's budget (150k steps, 20 seeds), or a quick smoke-test budget.
+    pub fn new(quick: bool, env: EnvKind) -> Self {
+        let (seeds, steps, window) = match (quick, env) {
+            (false, EnvKind::Grid) => (20, 150_000, 2500),
+            (false, EnvKind::Robot) => (5, 150_000, 2500),
+            (true, EnvKind::Grid) => (6, 30_000, 1000),
+            (true, EnvKind::Robot) => (2, 600, 100),
+        };
+        Self { seeds, steps, seed: 0, env, worlds: PathBuf::from("worlds"), window }
+    }
+
+    fn world(&self, name: &str) -> Result<World, LabError> {
+        Ok(World::load(self.worlds.join(format!("{name}.toml")))?)
+    }
+
+    fn cfg(&self, world: &str, env: EnvKind, kind: LearnerKind, params: Params, delay: &str) -> RunConfig {
+        RunConfig {
+            world: self.worlds.join(format!("{world}.toml")),
+            env,
+            learner: LearnerSpec { kind, params, lambda_hat: 0, max_delay: 50 },
+            delay: delay.into(),
+            steps: self.steps,
+            seed: self.seed,
+            seeds: self.seeds,
+            window: self.window,
+            eval_steps: 1000,
+            baseline: false,
+            save_tables: false,
+            ledger: false,
+        }
+    }
+}
+
+/// ε and q0 of Figs. 2–4 (the independent reference measurements use these).
+pub const EXPLORE_FIGS_2_4: Params = Params { alpha: 0.1, gamma: 0.9, epsilon: 0.05, q0: 10.0 };
+/// ε and q0 of Fig. 6 (the setting that reaches the paper's ≈ 95 %).
+pub const EXPLORE_FIG_6: Params = Params { alpha: 0.1, gamma: 0.9, epsilon: 0.01, q0: 20.0 };
+
+/// A setting run over seeds, with its undelayed baseline attached to every seed.
+#[derive(Clone, Debug)]
+pub struct Group {
+    /// The configuration (baseline = false; the baseline is run once per world and seed).
+    pub cfg: RunConfig,
+    /// Results in seed order, `baseline` filled in.
+    pub results: Vec<SeedResult>,
+}
+
+impl Group {
+    /// Per-seed relative performance at the end.
+    pub fn relative(&self) -> MeanCi {
+        mean_ci(&self.results.iter().filter_map(SeedResult::relative).collect::<Vec<_>>())
+    }
+    /// Fraction of the exact optimum during learning.
+    pub fn fraction(&self, optimum: f64) -> MeanCi {
+        mean_ci(&self.results.iter().map(|r| r.earned_per_step() / optimum).collect::<Vec<_>>())
+    }
+    /// Greedy evaluation reward per step.
+    pub fn greedy(&self) -> MeanCi {
+        mean_ci(&self.results.iter().map(|r| r.greedy_per_step).collect::<Vec<_>>())
+    }
+    /// Relative performance over time: at each curve point, the mean over seeds of
+    /// cumulative earned ÷ cumulative baseline earned (points where a baseline's
+    /// cumulative reward is not yet positive are skipped for that seed).
+    pub fn relative_curve(&self) -> Vec<(u64, MeanCi)> {
+        curve(&self.results, |r, i| {
+            let b = r.baseline.as_ref()?.curve.get(i)?.earned_cum;
+            (b > 0.0).then(|| r.run.curve[i].earned_cum / b)
+        })
+    }
+    /// Earned reward per step within each window, mean over seeds.
+    pub fn earned_curve(&self) -> Vec<(u64, MeanCi)> {
+        let w = self.cfg.window as f64;
+        curve(&self.results, |r, i| Some(r.run.curve[i].earned / w))
+    }
+    /// Received reward per step within each window, mean over seeds.
+    pub fn received_curve(&self) -> Vec<(u64, MeanCi)> {
+        let w = self.cfg.window as f64;
+        curve(&self.results, |r, i| Some(r.run.curve[i].received / w))
+    }
+}
+
+fn curve(results: &[SeedResult], f: impl Fn(&SeedResult, usize) -> Option<f64>) -> Vec<(u64, MeanCi)> {
+    let Some(first) = results.first() else { return Vec::new() };
+    (0..first.run.curve.len())
+        .filter_map(|i| {
+            let xs: Vec<f64> =
+                results.iter().filter(|r| i < r.run.curve.len()).filter_map(|r| f(r, i)).collect();
+            (!xs.is_empty()).then(|| (first.run.curve[i].step, mean_ci(&xs)))
+        })
+        .collect()
+}
+
+/// Runs many settings at once: every (setting, seed) pair and every needed baseline is
+/// one job in one parallel pool; results come back in setting and seed order.
+pub fn run_groups(cfgs: Vec<RunConfig>, ctl: Control<'_>) -> Result<Vec<Group>, LabError> {
+    // Baselines: undelayed Q-learning per (world, env, params, steps, window, seed).
+    let base_key = |c: &RunConfig, seed: u64| {
+        let p = c.learner.params;
+        format!(
+            "{}|{}|{}|{}|{}|{}|{}|{}|{seed}",
+            c.world.display(),
+            c.env.name(),
+            p.alpha,
+            p.gamma,
+            p.epsilon,
+            p.q0,
+            c.steps,
+            c.window
+        )
+    };
+    let mut jobs: Vec<(RunConfig, u64)> = Vec::new();
+    let mut keys: Vec<String> = Vec::new();
+    for c in &cfgs {
+        for seed in c.seed_list() {
+            let k = base_key(c, seed);
+            if !keys.contains(&k) {
+                keys.push(k);
+                let b = RunConfig {
+                    learner: c.baseline_learner(),
+                    delay: "none".into(),
+                    baseline: false,
+                    ..c.clone()
+                };
+                jobs.push((b, seed));
+            }
+        }
+    }
+    let n_base = jobs.len();
+    for c in &cfgs {
+        for seed in c.seed_list() {
+            jobs.push((RunConfig { baseline: false, ..c.clone() }, seed));
+        }
+    }
+    let worlds: Vec<World> = jobs.iter().map(|(c, _)| c.load_world()).collect::<Result<_, _>>()?;
+    let dists: Vec<DelayDist> = jobs.iter().map(|(c, _)| c.validate()).collect::<Result<_, _>>()?;
+    let limit = memory_limit(rayon::current_num_threads());
+    let done: Vec<Result<SeedResult, LabError>> = jobs
+        .par_iter()
+        .zip(worlds.par_iter().zip(dists.par_iter()))
+        .map(|((c, seed), (w, d))| run_seed(c, w, d, *seed, None, ctl, limit))
+        .collect();
+    let mut done = done.into_iter().collect::<Result<Vec<_>, _>>()?;
+    let runs = done.split_off(n_base);
+    let baselines: Vec<(String, Trajectory, f64)> =
+        keys.into_iter().zip(done).map(|(k, r)| (k, r.run, r.greedy_per_step)).collect();
+    let mut it = runs.into_iter();
+    let mut groups = Vec::new();
+    for c in cfgs {
+        let mut results = Vec::new();
+        for seed in c.seed_list() {
+            let mut r = it.next().expect("one result per job");
+            let k = base_key(&c, seed);
+            if let Some((_, b, g)) = baselines.iter().find(|x| x.0 == k) {
+                r.baseline = Some(b.clone());
+                r.baseline_greedy_per_step = Some(*g);
+            }
+            results.push(r);
+        }
+        groups.push(Group { cfg: c, results });
+    }
+    Ok(groups)
+}
+
+/// Total decision steps `run_groups` will take for `cfgs` (for progress bars).
+pub fn total_steps(cfgs: &[RunConfig]) -> u64 {
+    // Upper bound: each setting plus one baseline per setting and seed.
+    cfgs.iter().map(|c| 2 * c.steps * c.seeds).sum()
+}
+
+/// Fig. 2: 3×3, plain Q-learning, relative performance vs Poisson mean λ = 0…20.
+pub fn fig2_configs(o: &PaperOptions) -> Vec<RunConfig> {
+    (0..=20)
+        .map(|l| o.cfg("paper-3x3", EnvKind::Grid, LearnerKind::Q, EXPLORE_FIGS_2_4, &format!("poisson:{l}")))
+        .collect()
+}
+
+/// Fig. 3: λ = 5, plain Q-learning over time on 3×3, 5×5, 9×9.
+pub fn fig3_configs(o: &PaperOptions) -> Vec<RunConfig> {
+    ["paper-3x3", "paper-5x5", "paper-9x9"]
+        .iter()
+        .map(|w| o.cfg(w, EnvKind::Grid, LearnerKind::Q, EXPLORE_FIGS_2_4, "poisson:5"))
+        .collect()
+}
+
+/// Fig. 4: 9×9, λ = 17, fixed-delay Q with λ̂ = λ + i, i = −10…10.
+pub fn fig4_configs(o: &PaperOptions) -> Vec<RunConfig> {
+    (-10i64..=10)
+        .map(|i| {
+            let mut c = o.cfg("paper-9x9", EnvKind::Grid, LearnerKind::Fixed, EXPLORE_FIGS_2_4, "poisson:17");
+            c.learner.lambda_hat = (17 + i) as usize;
+            c
+        })
+        .collect()
+}
+
+/// Fig. 6 (and 7–12): 9×9, λ = 13, λ̂max = 50, MMQ and Q-learning, on `o.env`.
+pub fn fig6_configs(o: &PaperOptions) -> Vec<RunConfig> {
+    [LearnerKind::Mmq, LearnerKind::Q]
+        .iter()
+        .map(|&k| {
+            let mut c = o.cfg("paper-9x9", o.env, k, EXPLORE_FIG_6, "poisson:13");
+            c.save_tables = false;
+            c
+        })
+        .collect()
+}
+
+/// Sensitivity of Fig. 6 to the unstated ε and q0 (grid): three settings × {MMQ, Q}.
+pub fn sensitivity_configs(o: &PaperOptions) -> Vec<RunConfig> {
+    let mut v = Vec::new();
+    for (eps, q0) in [(0.05, 10.0), (0.02, 10.0), (0.01, 20.0)] {
+        for k in [LearnerKind::Mmq, LearnerKind::Q] {
+            let p = Params { alpha: 0.1, gamma: 0.9, epsilon: eps, q0 };
+            v.push(o.cfg("paper-9x9", EnvKind::Grid, k, p, "poisson:13"));
+        }
+    }
+    v
+}
+
+/// The exact optimum of a paper world.
+pub fn optimum_of(o: &PaperOptions, world: &str) -> Result<f64, LabError> {
+    Ok(mmq_core::optimum(&o.world(world)?).gain)
+}
+
+/// A world of the paper by name.
+pub fn world_of(o: &PaperOptions, world: &str) -> Result<World, LabError> {
+    o.world(world)
+}
+
+/// CSV of a curve: one row per point with mean, interval and n.
+pub fn curve_csv(label_col: &str, rows: &[(String, Vec<(u64, MeanCi)>)]) -> String {
+    let mut s = format!("{label_col},step,mean,ci95,n\n");
+    for (label, pts) in rows {
+        for (step, m) in pts {
+            let _ = writeln!(s, "{label},{step},{},{},{}", m.mean, m.ci95, m.n);
+        }
+    }
+    s
+}
+
+/// Writes `text` to `dir/name` atomically and returns the path.
+pub fn write_csv(dir: &Path, name: &str, text: &str) -> Result<PathBuf, LabError> {
+    let p = dir.join(name);
+    crate::output::write_atomic(&p, text.as_bytes())?;
+    Ok(p)
+}

@@ -1,0 +1,549 @@
+//! `mmq paper`: runs the paper's experiments (mmq-lab), draws every figure (mmq-plot)
+//! and writes `report.md` with the paper's value, ours (mean ± 95 % interval) and the
+//! setting side by side, pictures inlined.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use mmq_core::stats::MeanCi;
+use mmq_core::{Move, World};
+use mmq_lab::config::EnvKind;
+use mmq_lab::paper::{self, Group, PaperOptions};
+use mmq_lab::{Control, LabError};
+use mmq_plot::{ActionProbabilities, GridHeatmap, LineChart, PolicyArrows, RefLine, Series};
+
+use crate::cli::{EnvChoice, PaperArgs};
+use crate::{Failure, progress};
+
+/// A headline row: label, paper's value, reference value, ours from (groups, optimum).
+type HeadlineRow = (&'static str, &'static str, &'static str, Box<dyn Fn(&[Group], f64) -> String>);
+
+/// Which figures to make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    Fig2,
+    Fig3,
+    Fig4,
+    Fig6,
+    Sensitivity,
+}
+
+fn parts(fig: &str) -> Result<Vec<Part>, Failure> {
+    let mut v = Vec::new();
+    for f in fig.split(',') {
+        match f.trim() {
+            "all" => v.extend([Part::Fig2, Part::Fig3, Part::Fig4, Part::Fig6, Part::Sensitivity]),
+            "2" => v.push(Part::Fig2),
+            "3" => v.push(Part::Fig3),
+            "4" => v.push(Part::Fig4),
+            "6" | "7" | "8" | "9" | "10" | "11" | "12" => v.push(Part::Fig6),
+            "sens" | "sensitivity" => v.push(Part::Sensitivity),
+            other => {
+                return Err(crate::input_error(format!(
+                    "--fig `{other}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens or all (comma-separated)"
+                )));
+            }
+        }
+    }
+    v.dedup();
+    Ok(v)
+}
+
+/// The report under construction.
+struct Report {
+    out: PathBuf,
+    md: String,
+    files: Vec<PathBuf>,
+}
+
+impl Report {
+    fn figure(&mut self, written: Vec<PathBuf>, caption: &str) {
+        if let Some(png) = written.iter().find(|p| p.extension().is_some_and(|e| e == "png")) {
+            let name = png.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let _ = writeln!(self.md, "\n![{caption}]({name})\n\n*{caption}*\n");
+        }
+        self.files.extend(written);
+    }
+
+    fn csv(&mut self, name: &str, text: &str) -> Result<(), Failure> {
+        let p = paper::write_csv(&self.out, name, text)?;
+        let _ = writeln!(self.md, "Data: [`{name}`]({name})\n");
+        self.files.push(p);
+        Ok(())
+    }
+}
+
+fn pct(m: &MeanCi) -> String {
+    format!("{:.1} % ± {:.1}", 100.0 * m.mean, 100.0 * m.ci95)
+}
+
+fn num(m: &MeanCi) -> String {
+    format!("{:.3} ± {:.3}", m.mean, m.ci95)
+}
+
+fn series(name: &str, pts: &[(u64, MeanCi)], scale: f64) -> Series {
+    let x: Vec<f64> = pts.iter().map(|p| p.0 as f64).collect();
+    let y: Vec<f64> = pts.iter().map(|p| scale * p.1.mean).collect();
+    let lo: Vec<f64> = pts.iter().map(|p| scale * (p.1.mean - p.1.ci95)).collect();
+    let hi: Vec<f64> = pts.iter().map(|p| scale * (p.1.mean + p.1.ci95)).collect();
+    Series::new(name, x, y).with_band(lo, hi)
+}
+
+fn plot_err(e: mmq_plot::PlotError) -> Failure {
+    Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("{e}") }
+}
+
+/// Runs `mmq paper`.
+pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    let clock = Instant::now();
+    let parts = parts(&a.fig)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| LabError::Io { path: a.out.clone(), source: e })?;
+    let mut rep = Report { out: a.out.clone(), md: String::new(), files: Vec::new() };
+    let envs: Vec<EnvKind> = match a.env {
+        EnvChoice::Grid => vec![EnvKind::Grid],
+        EnvChoice::Robot => vec![EnvKind::Robot],
+        EnvChoice::Both => vec![EnvKind::Grid, EnvKind::Robot],
+    };
+    let opts_for = |env: EnvKind| {
+        let mut o = PaperOptions::new(a.quick, env);
+        if let Some(s) = a.seeds {
+            o.seeds = s;
+        }
+        if let Some(s) = a.steps {
+            o.steps = s;
+            o.window = (s / 60).max(1);
+        }
+        o.seed = a.seed;
+        o
+    };
+    let grid = opts_for(EnvKind::Grid);
+    let _ = writeln!(
+        rep.md,
+        "# Reproduction: Multiple-Model Q-Learning for Stochastic Reinforcement Delays\n\n\
+         Made by `mmq paper --fig {} --env {}{}` (mmq {}), {} thread(s).\n\
+         Every number is a mean over seeds with its 95 % confidence interval (Student t).\n\
+         Relative performance = cumulative earned reward ÷ that of undelayed Q-learning with the same\n\
+         world, seed, ε, q0 and horizon (eq. 3 without its stray 1/t). Fraction of optimum = earned reward\n\
+         per step ÷ the exact optimal average reward. Greedy evaluation = 1000 steps of the greedy policy\n\
+         from S, no exploration, no updates. \"Reference\" values come from an independent implementation\n\
+         measured on this machine (see docs/reproduction.md).\n",
+        a.fig,
+        a.env.name(),
+        if a.quick { " --quick (smoke-test budget: numbers are not the paper's)" } else { "" },
+        env!("CARGO_PKG_VERSION"),
+        rayon::current_num_threads()
+    );
+    let mut headline: Vec<(EnvKind, Vec<Group>, f64)> = Vec::new();
+    for part in &parts {
+        let o = &grid;
+        match part {
+            Part::Fig2 if envs.contains(&EnvKind::Grid) => fig2(o, &mut rep, stop, a.quiet)?,
+            Part::Fig3 if envs.contains(&EnvKind::Grid) => fig3(o, &mut rep, stop, a.quiet)?,
+            Part::Fig4 if envs.contains(&EnvKind::Grid) => fig4(o, &mut rep, stop, a.quiet)?,
+            Part::Sensitivity if envs.contains(&EnvKind::Grid) => sensitivity(o, &mut rep, stop, a.quiet)?,
+            Part::Fig6 => {
+                for &env in &envs {
+                    let o = opts_for(env);
+                    let (groups, optimum) = fig6(&o, &mut rep, stop, a.quiet)?;
+                    headline.push((env, groups, optimum));
+                }
+            }
+            _ => {}
+        }
+    }
+    if !headline.is_empty() {
+        let mut t = String::from(
+            "\n## Headline (Fig. 6 and Section VII-A): 9×9, Poisson λ = 13, λ̂max = 50, α = 0.1, γ = 0.9\n\n\
+             | quantity | paper | reference | ",
+        );
+        for (env, g, _) in &headline {
+            let _ =
+                write!(t, "ours, {} ({} seeds × {} steps) | ", env.name(), g[0].cfg.seeds, g[0].cfg.steps);
+        }
+        t.push_str("\n|---|---|---|");
+        for _ in &headline {
+            t.push_str("---|");
+        }
+        t.push('\n');
+        let rows: [HeadlineRow; 6] = [
+            (
+                "MMQ relative performance",
+                "≈ 95 %",
+                "99 ± 3 % (ε 0.01, q0 20)",
+                Box::new(|g, _| pct(&g[0].relative())),
+            ),
+            ("Q-learning relative performance", "≈ 0 %", "−4 %", Box::new(|g, _| pct(&g[1].relative()))),
+            (
+                "MMQ fraction of optimum (learning)",
+                "95 % of optimal",
+                "—",
+                Box::new(|g, o| pct(&g[0].fraction(o))),
+            ),
+            (
+                "MMQ greedy evaluation (reward/step)",
+                "0.59 (optimum 10/17)",
+                "0.41–0.55",
+                Box::new(|g, _| num(&g[0].greedy())),
+            ),
+            ("Q greedy evaluation (reward/step)", "0.0", "—", Box::new(|g, _| num(&g[1].greedy()))),
+            (
+                "undelayed Q-learning (reward/step)",
+                "—",
+                "—",
+                Box::new(|g, _| {
+                    let xs: Vec<f64> = g[0]
+                        .results
+                        .iter()
+                        .filter_map(|r| r.baseline.as_ref())
+                        .map(|b| b.earned_total / b.steps_done.max(1) as f64)
+                        .collect();
+                    num(&mmq_core::stats::mean_ci(&xs))
+                }),
+            ),
+        ];
+        for (label, paper_v, reference, f) in rows.iter() {
+            let _ = write!(t, "| {label} | {paper_v} | {reference} | ");
+            for (_, g, o) in &headline {
+                let _ = write!(t, "{} | ", f(g, *o));
+            }
+            t.push('\n');
+        }
+        let _ = writeln!(
+            t,
+            "\nSetting of Fig. 6: ε = {}, q0 = {} (the paper states neither; see the sensitivity table and docs/reproduction.md).",
+            paper::EXPLORE_FIG_6.epsilon,
+            paper::EXPLORE_FIG_6.q0
+        );
+        // The headline goes first, right after the introduction.
+        let intro_end = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
+        let intro_end = rep.md[intro_end..].find("\n\n").map_or(rep.md.len(), |i| intro_end + i + 2);
+        rep.md.insert_str(intro_end, &t);
+    }
+    let _ = writeln!(rep.md, "\n---\nWall time: {:.1} s.", clock.elapsed().as_secs_f64());
+    let report = a.out.join("report.md");
+    mmq_lab::output::write_atomic(&report, rep.md.as_bytes())?;
+    println!(
+        "wrote {} ({} files) in {:.1} s",
+        report.display(),
+        rep.files.len() + 1,
+        clock.elapsed().as_secs_f64()
+    );
+    if stop.load(std::sync::atomic::Ordering::SeqCst) {
+        eprintln!("interrupted: the report covers what finished");
+    }
+    Ok(())
+}
+
+fn run(
+    cfgs: Vec<mmq_lab::RunConfig>,
+    label: &str,
+    stop: &AtomicBool,
+    quiet: bool,
+) -> Result<Vec<Group>, Failure> {
+    let pb = progress::bar(paper::total_steps(&cfgs), label, quiet);
+    let progress = |n: u64| pb.inc(n);
+    let groups = paper::run_groups(cfgs, Control { stop, progress: &progress })?;
+    pb.finish_and_clear();
+    Ok(groups)
+}
+
+fn fig2(o: &PaperOptions, rep: &mut Report, stop: &AtomicBool, quiet: bool) -> Result<(), Failure> {
+    let groups = run(paper::fig2_configs(o), "fig 2", stop, quiet)?;
+    let pts: Vec<(u64, MeanCi)> = groups.iter().enumerate().map(|(l, g)| (l as u64, g.relative())).collect();
+    let mut chart = LineChart::new(
+        "Fig. 2: 3×3 grid, Q-learning under Poisson delay",
+        "mean delay λ (steps)",
+        "relative performance (%)",
+    );
+    chart.series.push(series("Q-learning, 3×3", &pts, 100.0).with_markers());
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 2: effect of larger delays (Section IV-A)\n\nSetting: 3×3, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds per λ.\n",
+        paper::EXPLORE_FIGS_2_4.epsilon,
+        paper::EXPLORE_FIGS_2_4.q0,
+        o.steps,
+        o.seeds
+    );
+    let _ = writeln!(rep.md, "| λ | paper | reference | ours |\n|---|---|---|---|");
+    for (l, paper_v, reference) in
+        [(0, "100 %", "100 %"), (3, "falls", "≈ 85 %"), (10, "falls", "—"), (20, "lowest", "≈ 81 %")]
+    {
+        let _ = writeln!(rep.md, "| {l} | {paper_v} | {reference} | {} |", pct(&pts[l].1));
+    }
+    rep.figure(
+        chart.write(&o_path(rep, "fig2")).map_err(plot_err)?,
+        "Fig. 2: relative performance vs mean delay λ, 3×3",
+    );
+    let mut csv = String::from("lambda,mean,ci95,n\n");
+    for (l, m) in &pts {
+        let _ = writeln!(csv, "{l},{},{},{}", m.mean, m.ci95, m.n);
+    }
+    rep.csv("fig2.csv", &csv)
+}
+
+fn o_path(rep: &Report, name: &str) -> PathBuf {
+    rep.out.join(name)
+}
+
+fn fig3(o: &PaperOptions, rep: &mut Report, stop: &AtomicBool, quiet: bool) -> Result<(), Failure> {
+    let groups = run(paper::fig3_configs(o), "fig 3", stop, quiet)?;
+    let names = ["3×3", "5×5", "9×9"];
+    let refs = ["≈ 85 %", "≈ 45 %", "≈ 1 %"];
+    let mut chart =
+        LineChart::new("Fig. 3: Q-learning, λ = 5, growing worlds", "step", "relative performance (%)");
+    let mut rows = Vec::new();
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 3: effect of environment size (Section IV-B)\n\nSetting: λ = 5, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        paper::EXPLORE_FIGS_2_4.epsilon,
+        paper::EXPLORE_FIGS_2_4.q0,
+        o.steps,
+        o.seeds
+    );
+    let _ = writeln!(rep.md, "| world | paper | reference | ours (end) |\n|---|---|---|---|");
+    for ((g, name), r) in groups.iter().zip(names).zip(refs) {
+        let c = g.relative_curve();
+        chart.series.push(series(name, &c, 100.0));
+        let _ = writeln!(rep.md, "| {name} | falls with size | {r} | {} |", pct(&g.relative()));
+        rows.push((name.to_string(), c));
+    }
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    chart.y_range = Some((-20.0, 140.0));
+    rep.figure(
+        chart.write(&o_path(rep, "fig3")).map_err(plot_err)?,
+        "Fig. 3: relative performance over time, λ = 5",
+    );
+    rep.csv("fig3.csv", &paper::curve_csv("world", &rows))
+}
+
+fn fig4(o: &PaperOptions, rep: &mut Report, stop: &AtomicBool, quiet: bool) -> Result<(), Failure> {
+    let groups = run(paper::fig4_configs(o), "fig 4", stop, quiet)?;
+    let pts: Vec<(i64, MeanCi)> =
+        groups.iter().enumerate().map(|(k, g)| (k as i64 - 10, g.relative())).collect();
+    let mut chart = LineChart::new(
+        "Fig. 4: 9×9, λ = 17, fixed delay estimate λ̂ = λ + i",
+        "error of the delay estimate i = λ̂ − λ (steps)",
+        "relative performance (%)",
+    );
+    let x: Vec<f64> = pts.iter().map(|p| p.0 as f64).collect();
+    let y: Vec<f64> = pts.iter().map(|p| 100.0 * p.1.mean).collect();
+    let lo: Vec<f64> = pts.iter().map(|p| 100.0 * (p.1.mean - p.1.ci95)).collect();
+    let hi: Vec<f64> = pts.iter().map(|p| 100.0 * (p.1.mean + p.1.ci95)).collect();
+    chart.series.push(Series::new("fixed-delay Q (eq. 4)", x, y).with_band(lo, hi).with_markers());
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    let best =
+        pts.iter().max_by(|a, b| a.1.mean.total_cmp(&b.1.mean)).map(|p| (p.0, p.1)).unwrap_or((0, pts[10].1));
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 4: errors in the delay estimate (Section V)\n\nSetting: 9×9, Poisson λ = 17, fixed-delay Q (eq. 4) with λ̂ = λ + i, ε = {}, q0 = {}, {} steps, {} seeds per i.\n",
+        paper::EXPLORE_FIGS_2_4.epsilon,
+        paper::EXPLORE_FIGS_2_4.q0,
+        o.steps,
+        o.seeds
+    );
+    let _ = writeln!(rep.md, "| quantity | paper | reference | ours |\n|---|---|---|---|");
+    let _ = writeln!(rep.md, "| peak at i | near 0 (Poisson-shaped) | i ∈ [−1, +2] | i = {} |", best.0);
+    let _ = writeln!(rep.md, "| peak value | — | ≈ 50 % | {} |", pct(&best.1));
+    let _ = writeln!(rep.md, "| i = −10 | ≈ 0 | ≈ 0 | {} |", pct(&pts[0].1));
+    let _ = writeln!(rep.md, "| i = +10 | ≈ 0 | ≈ 0 | {} |", pct(&pts[20].1));
+    rep.figure(
+        chart.write(&o_path(rep, "fig4")).map_err(plot_err)?,
+        "Fig. 4: performance after learning vs delay-estimate error i",
+    );
+    let mut csv = String::from("i,lambda_hat,mean,ci95,n\n");
+    for (i, m) in &pts {
+        let _ = writeln!(csv, "{i},{},{},{},{}", 17 + i, m.mean, m.ci95, m.n);
+    }
+    rep.csv("fig4.csv", &csv)
+}
+
+fn sensitivity(o: &PaperOptions, rep: &mut Report, stop: &AtomicBool, quiet: bool) -> Result<(), Failure> {
+    let groups = run(paper::sensitivity_configs(o), "ε, q0", stop, quiet)?;
+    let optimum = paper::optimum_of(o, "paper-9x9")?;
+    let _ = writeln!(
+        rep.md,
+        "\n## Sensitivity of Fig. 6 to the unstated ε and q0 (grid)\n\n9×9, λ = 13, λ̂max = 50, {} steps, {} seeds.\n",
+        o.steps, o.seeds
+    );
+    let _ = writeln!(
+        rep.md,
+        "| ε | q0 | learner | relative | reference | fraction of optimum | greedy evaluation |\n|---|---|---|---|---|---|---|"
+    );
+    let refs = ["74 ± 2 %", "−2 ± 2 %", "89 ± 2 %", "−2 %", "99 ± 3 %", "−4 %"];
+    let mut csv = String::from(
+        "epsilon,q0,learner,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,n\n",
+    );
+    for (g, r) in groups.iter().zip(refs) {
+        let p = g.cfg.learner.params;
+        let (rel, frac, gr) = (g.relative(), g.fraction(optimum), g.greedy());
+        let _ = writeln!(
+            rep.md,
+            "| {} | {} | {} | {} | {r} | {} | {} |",
+            p.epsilon,
+            p.q0,
+            g.cfg.learner.kind.name(),
+            pct(&rel),
+            pct(&frac),
+            num(&gr)
+        );
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{}",
+            p.epsilon,
+            p.q0,
+            g.cfg.learner.kind.name(),
+            rel.mean,
+            rel.ci95,
+            frac.mean,
+            frac.ci95,
+            gr.mean,
+            gr.ci95,
+            rel.n
+        );
+    }
+    rep.md.push('\n');
+    rep.csv("sensitivity.csv", &csv)
+}
+
+fn fig6(
+    o: &PaperOptions,
+    rep: &mut Report,
+    stop: &AtomicBool,
+    quiet: bool,
+) -> Result<(Vec<Group>, f64), Failure> {
+    let env = o.env.name();
+    let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
+    let groups = run(paper::fig6_configs(o), &format!("fig 6 {env}"), stop, quiet)?;
+    let world = paper::world_of(o, "paper-9x9")?;
+    let optimum = mmq_core::optimum(&world).gain;
+    let (mmq, q) = (&groups[0], &groups[1]);
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 6{}: MMQ vs Q-learning under Poisson delay (Section VII), {env}\n\nSetting: 9×9 {env}, λ = 13, λ̂max = 50, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        if o.env == EnvKind::Robot { " on the robot" } else { "" },
+        paper::EXPLORE_FIG_6.epsilon,
+        paper::EXPLORE_FIG_6.q0,
+        o.steps,
+        o.seeds
+    );
+    let (cm, cq) = (mmq.relative_curve(), q.relative_curve());
+    let mut chart = LineChart::new(
+        format!("Fig. 6{sfx}: 9×9 {env}, λ = 13: MMQ vs Q-learning"),
+        if o.env == EnvKind::Robot { "primitive" } else { "step" },
+        "relative performance (%)",
+    );
+    chart.series.push(series("MMQ (λ̂max = 50)", &cm, 100.0));
+    chart.series.push(series("Q-learning", &cq, 100.0));
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    chart.ref_lines.push(RefLine::new("paper: MMQ ≈ 95 %", 95.0));
+    // Early ratios divide by a baseline that has earned almost nothing yet; clip them.
+    chart.y_range = Some((-60.0, 200.0));
+    rep.figure(
+        chart.write(&o_path(rep, &format!("fig6{sfx}"))).map_err(plot_err)?,
+        &format!("Fig. 6{sfx}: relative performance over time"),
+    );
+    rep.csv(
+        &format!("fig6{sfx}.csv"),
+        &paper::curve_csv("learner", &[("mmq".into(), cm), ("q".into(), cq)]),
+    )?;
+    // Earned and received reward per step over time.
+    let mut chart = LineChart::new(
+        format!("Fig. 6{sfx}: earned and received reward, {env}"),
+        if o.env == EnvKind::Robot { "primitive" } else { "step" },
+        "reward per step (window mean)",
+    );
+    let curves = [
+        ("MMQ earned", mmq.earned_curve()),
+        ("MMQ received", mmq.received_curve()),
+        ("Q earned", q.earned_curve()),
+        ("Q received", q.received_curve()),
+    ];
+    for (n, c) in &curves {
+        chart.series.push(series(n, c, 1.0));
+    }
+    chart.ref_lines.push(RefLine::new("exact optimum 10/17", optimum));
+    rep.figure(
+        chart.write(&o_path(rep, &format!("fig6-rewards{sfx}"))).map_err(plot_err)?,
+        &format!("Fig. 6{sfx}: earned (emitted) and received (delivered) reward per step"),
+    );
+    let rows: Vec<(String, Vec<(u64, MeanCi)>)> =
+        curves.iter().map(|(n, c)| (n.replace(' ', "_"), c.clone())).collect();
+    rep.csv(&format!("fig6-rewards{sfx}.csv"), &paper::curve_csv("series", &rows))?;
+    maps(&world, mmq, q, rep, sfx)?;
+    Ok((groups, optimum))
+}
+
+/// Figs. 7–12 from the first seed of each learner (a representative run, as in the paper).
+fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Report, sfx: &str) -> Result<(), Failure> {
+    let _ = writeln!(
+        rep.md,
+        "\n### Figs. 7–12{sfx}: visits and policies after learning (seed {})\n",
+        mmq.results[0].seed
+    );
+    let mut csv = String::from("learner,cell,row,col,visits,greedy,p_N,p_E,p_S,p_W\n");
+    for (g, name, figs) in [(mmq, "MMQ", [7, 8, 9]), (q, "Q-learning", [10, 11, 12])] {
+        let r = &g.results[0];
+        let cells = world.num_cells();
+        let visits: Vec<f64> = (0..cells).map(|c| r.run.visits.get(c).copied().unwrap_or(0) as f64).collect();
+        let h = GridHeatmap::new(
+            format!("Fig. {}{sfx}: visits during learning, {name}", figs[0]),
+            world,
+            visits.clone(),
+            "visits",
+        )
+        .log();
+        rep.figure(
+            h.write(&o_path(rep, &format!("fig{}{sfx}", figs[0]))).map_err(plot_err)?,
+            &format!("Fig. {}{sfx}: how often each state is visited during learning, {name}", figs[0]),
+        );
+        let arrows: Vec<u8> = (0..cells)
+            .map(|c| if world.is_free(c) && c != world.goal { r.policy_arrows[c] } else { 0 })
+            .collect();
+        let p = PolicyArrows::new(format!("Fig. {}{sfx}: greedy policy, {name}", figs[1]), world, arrows)
+            .with_path(r.greedy_path.iter().copied().take(40).collect());
+        rep.figure(p.write(&o_path(rep, &format!("fig{}{sfx}", figs[1]))).map_err(plot_err)?, &format!("Fig. {}{sfx}: deterministic policy, {name} (shaded: greedy path from S; greedy evaluation {:.3}/step)", figs[1], r.greedy_per_step));
+        let probs: Vec<[f64; 4]> = (0..cells)
+            .map(|c| {
+                let v = &r.policy_probs[c];
+                if world.is_free(c) && v.len() == 4 { [v[0], v[1], v[2], v[3]] } else { [0.0; 4] }
+            })
+            .collect();
+        let ap = ActionProbabilities::new(
+            format!("Fig. {}{sfx}: probabilistic policy (eq. 8, normalised), {name}", figs[2]),
+            world,
+            probs.clone(),
+        );
+        rep.figure(
+            ap.write(&o_path(rep, &format!("fig{}{sfx}", figs[2]))).map_err(plot_err)?,
+            &format!("Fig. {}{sfx}: probabilistic policy, {name}", figs[2]),
+        );
+        for c in 0..cells {
+            let (row, col) = world.row_col(c);
+            let greedy: String = Move::ALL
+                .iter()
+                .enumerate()
+                .filter(|(a, _)| arrows_of(r, c) & (1 << a) != 0)
+                .map(|(_, m)| m.name())
+                .collect();
+            let pr = probs[c];
+            let _ = writeln!(
+                csv,
+                "{},{c},{row},{col},{},{greedy},{},{},{},{}",
+                name.to_lowercase(),
+                visits[c],
+                pr[0],
+                pr[1],
+                pr[2],
+                pr[3]
+            );
+        }
+    }
+    rep.csv(&format!("fig7-12{sfx}.csv"), &csv)
+}
+
+fn arrows_of(r: &mmq_lab::SeedResult, c: usize) -> u8 {
+    r.policy_arrows.get(c).copied().unwrap_or(0)
+}
