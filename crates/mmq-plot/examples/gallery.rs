@@ -39,8 +39,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     written.extend(c.write(&dir.join("fig2-lambda"))?);
 
     // Fig. 6: relative performance over time, two learners, with bands.
-    let t: Vec<f64> = (1..=150).map(|k| f64::from(k) * 1000.0).collect();
-    let mmq: Vec<f64> = t.iter().map(|t| 0.95 * (1.0 - (-t / 20_000.0).exp())).collect();
+    // One point per time step, with deterministic pseudo-noise: exercises decimation.
+    let t: Vec<f64> = (1..=150_000).map(f64::from).collect();
+    let noise = |t: f64| ((t * 12.9898).sin() * 43_758.545).fract() * 0.04;
+    let mmq: Vec<f64> = t.iter().map(|t| 0.95 * (1.0 - (-t / 20_000.0).exp()) + noise(*t)).collect();
     let q: Vec<f64> = t.iter().map(|t| 0.02 * (t / 150_000.0).sin()).collect();
     let band = |v: &[f64], w: f64| -> (Vec<f64>, Vec<f64>) {
         (v.iter().map(|x| x - w).collect(), v.iter().map(|x| x + w).collect())
@@ -112,6 +114,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     c.series.push(Series::new("all NaN", vec![nan; 3], vec![nan; 3]));
     c.y_range = Some((0.0, 1.0));
     written.extend(c.write(&dir.join("gaps"))?);
+
+    // Data in every corner: the legend goes outside, right of the plot.
+    let x: Vec<f64> = (0..200).map(|k| f64::from(k) / 10.0).collect();
+    let mut c = LineChart::new("Dense data", "time (s)", "signal (a.u.)");
+    for (k, name) in ["sin", "cos", "sin 2x"].iter().enumerate() {
+        let f = 1.0 + k as f64 * 0.7;
+        c.series.push(Series::new(*name, x.clone(), x.iter().map(|t| (f * t).sin()).collect()));
+    }
+    written.extend(c.write(&dir.join("dense"))?);
 
     // Fig. 7: visits, 9×9.
     let w9 = world("paper-9x9");

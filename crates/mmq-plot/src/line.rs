@@ -208,7 +208,7 @@ impl LineChart {
             }
             prev = pt;
         }
-        out
+        out.into_iter().map(|l| decimate_line(l, p.x)).collect()
     }
 
     /// Band polygons in plot space, split at missing values, clamped to the y range.
@@ -225,12 +225,77 @@ impl LineChart {
             }
         }
         runs.into_iter()
+            .map(|r| decimate_band(r, p.x))
             .filter(|r| r.len() >= 2)
             .map(|r| {
                 r.iter().map(|&(x, _, h)| (x, h)).chain(r.iter().rev().map(|&(x, l, _)| (x, l))).collect()
             })
             .collect()
     }
+}
+
+/// Columns of the x range within which consecutive points are merged: finer than the
+/// PNG's pixels, so decimation is invisible.
+const COLUMNS: f64 = 1600.0;
+/// Lines and bands shorter than this are drawn as given.
+const DECIMATE_ABOVE: usize = 4 * COLUMNS as usize;
+
+fn column(x: f64, (x0, x1): (f64, f64)) -> i64 {
+    ((x - x0) / (x1 - x0) * COLUMNS).floor() as i64
+}
+
+/// Keeps, of every run of consecutive points in one column, the first, lowest, highest
+/// and last (in their order), so a long curve (e.g. one point per time step) keeps its
+/// exact envelope with a few points per column.
+fn decimate_line(line: Vec<(f64, f64)>, xr: (f64, f64)) -> Vec<(f64, f64)> {
+    if line.len() <= DECIMATE_ABOVE {
+        return line;
+    }
+    let mut out = Vec::new();
+    let mut run: Vec<(usize, (f64, f64))> = Vec::new();
+    let flush = |run: &mut Vec<(usize, (f64, f64))>, out: &mut Vec<(f64, f64)>| {
+        if run.is_empty() {
+            return;
+        }
+        let lo = run.iter().min_by(|a, b| a.1.1.total_cmp(&b.1.1)).expect("non-empty").0;
+        let hi = run.iter().max_by(|a, b| a.1.1.total_cmp(&b.1.1)).expect("non-empty").0;
+        let mut keep = vec![run[0].0, lo, hi, run[run.len() - 1].0];
+        keep.sort_unstable();
+        keep.dedup();
+        let first = run[0].0;
+        out.extend(keep.into_iter().map(|i| run[i - first].1));
+        run.clear();
+    };
+    for (i, q) in line.into_iter().enumerate() {
+        if run.last().is_some_and(|(_, r)| column(r.0, xr) != column(q.0, xr)) {
+            flush(&mut run, &mut out);
+        }
+        run.push((i, q));
+    }
+    flush(&mut run, &mut out);
+    out
+}
+
+/// Merges consecutive band points in one column into one: first x, lowest lower edge,
+/// highest upper edge.
+fn decimate_band(run: Vec<(f64, f64, f64)>, xr: (f64, f64)) -> Vec<(f64, f64, f64)> {
+    if run.len() <= DECIMATE_ABOVE {
+        return run;
+    }
+    let mut out: Vec<(f64, f64, f64)> = Vec::new();
+    let mut last_col = None;
+    for (x, l, h) in run {
+        let c = column(x, xr);
+        match out.last_mut() {
+            Some(q) if last_col == Some(c) => {
+                q.1 = q.1.min(l);
+                q.2 = q.2.max(h);
+            }
+            _ => out.push((x, l, h)),
+        }
+        last_col = Some(c);
+    }
+    out
 }
 
 /// A linear axis in plot space with the ticks chosen here (plotters' own f64 axis picks
@@ -317,6 +382,92 @@ fn clip_segment(
         }
     };
     Some((at(t0), at(t1)))
+}
+
+/// Draws a polyline (backend pixels) `width` logical pixels wide, optionally dashed
+/// (`(dash, gap)` in logical pixels).
+///
+/// On the bitmap backend plotters joins thick segments with unlimited mitres, which
+/// shoot spikes far out of the plot at sharp turns (any noisy curve); there every
+/// segment is drawn on its own and the joints are rounded with discs.
+fn stroke<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    pts: &[(i32, i32)],
+    color: RGBColor,
+    width: f64,
+    dash: Option<(f64, f64)>,
+    ink: Ink,
+) -> DrawResult<DB> {
+    let mut pieces: Vec<Vec<(i32, i32)>> = Vec::new();
+    match dash {
+        None => pieces.push(pts.to_vec()),
+        Some((on, off)) => {
+            // Walk the polyline, emitting the "on" stretches.
+            let (on, off) = (on * ink.k, off * ink.k);
+            let mut drawing = true;
+            let mut left = on;
+            let mut cur: Vec<(f64, f64)> = Vec::new();
+            let f = |p: (i32, i32)| (f64::from(p.0), f64::from(p.1));
+            let r = |p: (f64, f64)| (p.0.round() as i32, p.1.round() as i32);
+            if let Some(&first) = pts.first() {
+                cur.push(f(first));
+            }
+            for w in pts.windows(2) {
+                let (mut a, b) = (f(w[0]), f(w[1]));
+                let mut len = (b.0 - a.0).hypot(b.1 - a.1);
+                while len > left {
+                    let t = left / len;
+                    let m = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+                    if drawing {
+                        cur.push(m);
+                        pieces.push(cur.drain(..).map(r).collect());
+                    } else {
+                        cur.push(m);
+                    }
+                    len -= left;
+                    a = m;
+                    drawing = !drawing;
+                    left = if drawing { on } else { off };
+                }
+                left -= len;
+                if drawing {
+                    cur.push(b);
+                } else {
+                    cur.clear();
+                }
+            }
+            if drawing && cur.len() >= 2 {
+                pieces.push(cur.into_iter().map(r).collect());
+            }
+        }
+    }
+    let style = color.stroke_width(ink.pu(width));
+    for piece in pieces {
+        if !ink.bitmap {
+            root.draw(&PathElement::new(piece, style))?;
+            continue;
+        }
+        let radius = (width * ink.k / 2.0).floor() as i32;
+        let mut prev_dir: Option<(f64, f64)> = None;
+        for w in piece.windows(2) {
+            if w[0] == w[1] {
+                continue;
+            }
+            root.draw(&PathElement::new(vec![w[0], w[1]], style))?;
+            let (dx, dy) = (f64::from(w[1].0 - w[0].0), f64::from(w[1].1 - w[0].1));
+            let len = dx.hypot(dy);
+            let dir = (dx / len, dy / len);
+            // Round the joint where the line turns by more than ~20°.
+            if let Some(d) = prev_dir
+                && d.0 * dir.0 + d.1 * dir.1 < 0.94
+                && radius >= 2
+            {
+                root.draw(&Circle::new(w[0], radius, color.filled()))?;
+            }
+            prev_dir = Some(dir);
+        }
+    }
+    Ok(())
 }
 
 /// Marker shapes, one per series (cycled).
@@ -629,15 +780,11 @@ impl Figure for LineChart {
             }
         }
         for (i, s) in self.series.iter().enumerate() {
-            let style = Self::color(i).stroke_width(ink.pu(2.5));
+            let dash = (i >= PALETTE.len()).then_some((12.0, 5.0));
             for line in self.lines(s, &p) {
-                if line.len() < 2 {
-                    continue;
-                }
-                if i >= PALETTE.len() {
-                    chart.draw_series(DashedLineSeries::new(line, ink.p(12.0), ink.p(5.0), style))?;
-                } else {
-                    chart.draw_series(LineSeries::new(line, style))?;
+                if line.len() >= 2 {
+                    let px: Vec<(i32, i32)> = line.iter().map(|q| chart.backend_coord(q)).collect();
+                    stroke(root, &px, Self::color(i), 2.5, dash, ink)?;
                 }
             }
         }
@@ -799,6 +946,22 @@ mod tests {
         assert_eq!(clip_segment((0.2, 0.2), (0.8, 0.8), r.0, r.1), Some(((0.2, 0.2), (0.8, 0.8))));
         assert_eq!(clip_segment((0.0, 0.5), (1.0, 1.5), r.0, r.1), Some(((0.0, 0.5), (0.5, 1.0))));
         assert_eq!(clip_segment((0.0, 2.0), (1.0, 2.0), r.0, r.1), None);
+    }
+
+    #[test]
+    fn long_lines_keep_their_envelope() {
+        let n = 100_000;
+        let x: Vec<f64> = (0..n).map(f64::from).collect();
+        let y: Vec<f64> = (0..n).map(|i| if i == 4321 { 9.0 } else { f64::from(i % 7) }).collect();
+        let c = LineChart { series: vec![Series::new("a", x, y)], ..LineChart::default() };
+        let p = c.prepare();
+        let l = c.lines(&c.series[0], &p);
+        assert_eq!(l.len(), 1);
+        assert!(l[0].len() < 4 * COLUMNS as usize + 4, "{}", l[0].len());
+        assert!(l[0].contains(&(4321.0, 9.0)));
+        assert_eq!(l[0][0], (0.0, 0.0));
+        assert_eq!(*l[0].last().unwrap(), (f64::from(n - 1), f64::from((n - 1) % 7)));
+        assert!(l[0].windows(2).all(|w| w[0].0 <= w[1].0));
     }
 
     #[test]
