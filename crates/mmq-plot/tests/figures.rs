@@ -242,3 +242,28 @@ fn output_is_deterministic() {
         assert_eq!(std::fs::read(x).unwrap(), std::fs::read(y).unwrap(), "{}", x.display());
     }
 }
+
+/// A noisy per-step curve (sharp turns everywhere) stays inside the plot: plotters'
+/// mitred thick lines would shoot spikes over the title and below the axis.
+#[test]
+fn noisy_curves_stay_inside_the_plot() {
+    let dir = tempfile::tempdir().unwrap();
+    let x: Vec<f64> = (0..50_000).map(f64::from).collect();
+    let y: Vec<f64> = x.iter().map(|t| ((t * 12.9898).sin() * 43_758.545).fract()).collect();
+    let mut c = LineChart::new("Noise", "t", "y");
+    c.series.push(Series::new("noise", x, y));
+    let base = dir.path().join("noise");
+    let paths = c.write(&base).unwrap();
+    let (w, h, px) = decode(&paths[1]);
+    let blue = |y: u32| {
+        (0..w).any(|x| {
+            let i = ((y * w + x) * 3) as usize;
+            px[i] < 60 && px[i + 1] > 80 && px[i + 1] < 150 && px[i + 2] > 140
+        })
+    };
+    assert!((0..40).all(|y| !blue(y)), "line pixels in the title band");
+    assert!((h - 60..h).all(|y| !blue(y)), "line pixels in the x-axis label band");
+    assert!((100..400).any(blue));
+    // Long input is decimated: the SVG stays small.
+    assert!(std::fs::metadata(&paths[0]).unwrap().len() < 400_000);
+}
