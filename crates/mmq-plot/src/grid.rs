@@ -164,7 +164,8 @@ impl GridHeatmap {
         self
     }
 
-    /// Writes `<base>.svg` and `<base>.png`; returns both paths.
+    /// Writes `<base>.svg` and `<base>.png` (the directory must exist; `.svg`/`.png` are
+    /// appended to the file name) and returns both paths.
     pub fn write(&self, base: &Path) -> Result<Vec<PathBuf>, PlotError> {
         write_figure(self, base)
     }
@@ -231,7 +232,8 @@ impl PolicyArrows {
         self
     }
 
-    /// Writes `<base>.svg` and `<base>.png`; returns both paths.
+    /// Writes `<base>.svg` and `<base>.png` (the directory must exist; `.svg`/`.png` are
+    /// appended to the file name) and returns both paths.
     pub fn write(&self, base: &Path) -> Result<Vec<PathBuf>, PlotError> {
         write_figure(self, base)
     }
@@ -262,7 +264,8 @@ impl ActionProbabilities {
         Self { title: title.into(), grid: world.into(), probs }
     }
 
-    /// Writes `<base>.svg` and `<base>.png`; returns both paths.
+    /// Writes `<base>.svg` and `<base>.png` (the directory must exist; `.svg`/`.png` are
+    /// appended to the file name) and returns both paths.
     pub fn write(&self, base: &Path) -> Result<Vec<PathBuf>, PlotError> {
         write_figure(self, base)
     }

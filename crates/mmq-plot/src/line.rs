@@ -102,7 +102,8 @@ impl LineChart {
         Self { title: title.into(), x_label: x_label.into(), y_label: y_label.into(), ..Self::default() }
     }
 
-    /// Writes `<base>.svg` and `<base>.png`; returns both paths.
+    /// Writes `<base>.svg` and `<base>.png` (the directory must exist; `.svg`/`.png` are
+    /// appended to the file name) and returns both paths.
     pub fn write(&self, base: &Path) -> Result<Vec<PathBuf>, PlotError> {
         write_figure(self, base)
     }
