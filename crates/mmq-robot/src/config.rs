@@ -459,7 +459,7 @@ impl RobotConfig {
                 ),
                 &format!(
                     "a radius at most {} m, or a larger `cell_size` in the world file",
-                    (world.cell_size / 2.0 - CLEARANCE_M).max(0.0)
+                    ((world.cell_size / 2.0 - CLEARANCE_M).max(0.0) * 1e6).round() / 1e6
                 ),
             ));
         }

@@ -1,1 +1,28 @@
 //! Integration tests of mmq-robot, one module per topic.
+
+mod config;
+mod determinism;
+mod heading;
+mod motion;
+mod trace;
+
+use mmq_core::World;
+use mmq_robot::{RobotConfig, RobotEnv};
+
+/// A shipped world by name.
+pub fn world(name: &str) -> World {
+    World::load(format!("{}/../../worlds/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+/// The environment of a shipped world with its own configuration.
+pub fn env(name: &str) -> RobotEnv {
+    let w = world(name);
+    let cfg = RobotConfig::from_world(&w).unwrap();
+    RobotEnv::new(&w, cfg).unwrap()
+}
+
+/// A named figure from `Env::stats`.
+pub fn stat(env: &RobotEnv, key: &str) -> f64 {
+    use mmq_core::Env;
+    env.stats().into_iter().find(|(k, _)| k == key).map(|(_, v)| v).unwrap()
+}
