@@ -1,1 +1,179 @@
-fn main() {}
+//! Recording cost per step: a grid run (paper 9×9, Poisson(5) delays, with the ledger)
+//! and a robot-like run (60 pose samples per step thinned to 10 Hz), recorded to a
+//! temporary file. The environment's own cost is excluded: the steps are precomputed.
+//! Bytes per step are printed before the timings.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, Throughput, criterion_group};
+use mmq_core::seed::splitmix64;
+use mmq_core::{
+    ContactSample, DelayDist, DelayedReward, Env, Event, Ledger, Move, Observer, PoseSample, RunInfo, Start,
+    StepRecord, StepTrace, World,
+};
+use mmq_grid::GridEnv;
+use mmq_log::{McapRecorder, RecorderConfig};
+
+const STEPS: u64 = 10_000;
+
+struct Step {
+    t: u64,
+    state: usize,
+    action: usize,
+    next_state: usize,
+    emitted: f64,
+    event: Event,
+    delay: Option<u32>,
+    delivered: f64,
+    ids: Vec<u64>,
+    sim_time_s: f64,
+    trace: StepTrace,
+}
+
+struct Run {
+    world: World,
+    kind: &'static str,
+    s0: usize,
+    steps: Vec<Step>,
+    ledger: Option<Ledger>,
+}
+
+fn action(t: u64) -> usize {
+    let r = splitmix64(t);
+    if r % 10 < 4 { [0, 3][(r >> 8) as usize % 2] } else { ((r >> 16) % 4) as usize }
+}
+
+fn world(name: &str) -> World {
+    World::load(format!("{}/../../worlds/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+fn grid_run() -> Run {
+    let world = world("paper-9x9");
+    let mut ch = DelayedReward::new(GridEnv::new(&world), &DelayDist::Poisson(5.0), true);
+    let s0 = ch.reset(1, 2, Start::World).unwrap();
+    let mut s = s0;
+    let mut steps = Vec::new();
+    for t in 0..STEPS {
+        let a = action(t);
+        let st = ch.step(a).unwrap();
+        steps.push(Step {
+            t,
+            state: s,
+            action: a,
+            next_state: st.step.state,
+            emitted: st.step.reward,
+            event: st.step.event,
+            delay: st.delay,
+            delivered: st.delivered,
+            ids: ch.delivered_ids().to_vec(),
+            sim_time_s: ch.env().sim_time_s(),
+            trace: StepTrace::default(),
+        });
+        s = st.step.state;
+    }
+    Run { ledger: ch.ledger().cloned(), world, kind: "grid", s0, steps }
+}
+
+fn robot_run() -> Run {
+    let world = world("room-12x6");
+    let mut s = world.respawn;
+    let mut steps = Vec::new();
+    for t in 0..STEPS {
+        let a = action(t);
+        let (n, r, ev) = world.transition(s, Move::ALL[a]);
+        let ((x0, y0), (x1, y1)) = (world.cell_center(s), world.cell_center(n));
+        let mut trace = StepTrace::default();
+        for k in 1..=60 {
+            let f = k as f64 / 60.0;
+            let time_s = t as f64 + f;
+            trace.poses.push(PoseSample { time_s, x: x0 + (x1 - x0) * f, y: y0 + (y1 - y0) * f, theta: 0.0 });
+        }
+        if ev == Event::WallBump {
+            trace.contacts.push(ContactSample {
+                time_s: t as f64 + 0.5,
+                started: true,
+                wall: "boundary-north".into(),
+            });
+            trace.contacts.push(ContactSample {
+                time_s: t as f64 + 0.6,
+                started: false,
+                wall: "boundary-north".into(),
+            });
+        }
+        steps.push(Step {
+            t,
+            state: s,
+            action: a,
+            next_state: n,
+            emitted: r,
+            event: ev,
+            delay: (r != 0.0).then_some(0),
+            delivered: r,
+            ids: Vec::new(),
+            sim_time_s: t as f64 + 1.0,
+            trace,
+        });
+        s = n;
+    }
+    Run { world: world.clone(), kind: "robot", s0: world.respawn, steps, ledger: None }
+}
+
+/// Records the run; returns the file size.
+fn record(run: &Run, path: &std::path::Path) -> u64 {
+    let mut rec = McapRecorder::create(RecorderConfig::new(path)).unwrap();
+    let names: Vec<String> = Move::ALL.iter().map(|m| m.name().to_string()).collect();
+    let info = RunInfo {
+        world: &run.world,
+        seed: 1,
+        learner: "bench",
+        action_names: &names,
+        config_toml: "",
+        env_kind: run.kind,
+        facts: &[],
+    };
+    rec.on_start(&info, run.s0, 0.0);
+    for s in &run.steps {
+        rec.on_step(&StepRecord {
+            t: s.t,
+            state: s.state,
+            action: s.action,
+            model: Some(3),
+            explored: false,
+            next_state: s.next_state,
+            emitted: s.emitted,
+            event: s.event,
+            delay: s.delay,
+            delivered: s.delivered,
+            delivered_ids: &s.ids,
+            ledger: run.ledger.as_ref(),
+            sim_time_s: s.sim_time_s,
+            trace: &s.trace,
+        });
+    }
+    rec.finish(STEPS, true).unwrap().bytes
+}
+
+fn bench(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut g = c.benchmark_group("record");
+    g.throughput(Throughput::Elements(STEPS));
+    g.sample_size(10);
+    for run in [grid_run(), robot_run()] {
+        let path = dir.path().join(format!("{}.mcap", run.kind));
+        let bytes = record(&run, &path);
+        println!(
+            "record/{}: {:.1} bytes per step ({bytes} bytes for {STEPS} steps)",
+            run.kind,
+            bytes as f64 / STEPS as f64
+        );
+        g.bench_function(run.kind, |b| b.iter(|| black_box(record(&run, &path))));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
