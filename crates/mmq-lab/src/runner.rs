@@ -12,6 +12,7 @@ use mmq_core::{
 use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
 use mmq_learn::{Experience, Learner, LearnerSpec, Table, Truth};
+use mmq_robot::{RobotConfig, RobotEnv};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -117,17 +118,29 @@ impl SeedResult {
     }
 }
 
-/// Per-run facts handed to observers and recorded in summaries.
-pub fn run_facts(cfg: &RunConfig) -> Vec<(String, String)> {
+/// Per-run facts handed to observers and recorded in summaries: versions, the
+/// environment, and for the robot the physics build (rapier version, determinism
+/// features, dt, preset).
+pub fn run_facts(cfg: &RunConfig, world: &World) -> Vec<(String, String)> {
     let mut f = vec![
         ("mmq_version".to_string(), env!("CARGO_PKG_VERSION").to_string()),
         ("env".to_string(), cfg.env.name().to_string()),
-        ("grid_step_period_s".to_string(), mmq_grid::STEP_PERIOD_S.to_string()),
     ];
-    if cfg.env == EnvKind::Robot {
-        f.push(("robot".into(), "see robot facts".into()));
+    match cfg.env {
+        EnvKind::Grid => f.push(("grid_step_period_s".to_string(), mmq_grid::STEP_PERIOD_S.to_string())),
+        EnvKind::Robot => match robot_env(world) {
+            Ok(env) => f.extend(env.features()),
+            Err(e) => f.push(("robot_error".into(), e.to_string())),
+        },
     }
     f
+}
+
+/// The robot environment of `world` (its `[robot]` table resolved and validated).
+pub fn robot_env(world: &World) -> Result<RobotEnv, LabError> {
+    let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
+    let cfg = RobotConfig::from_world(world).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))?;
+    RobotEnv::new(world, cfg).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))
 }
 
 /// Runs one seed: learning under delay, greedy evaluation, then the baseline.
@@ -141,16 +154,17 @@ pub fn run_seed(
     mem_limit: u128,
 ) -> Result<SeedResult, LabError> {
     match cfg.env {
-        EnvKind::Grid => run_seed_on(cfg, dist, seed, observer, ctl, mem_limit, || Ok(GridEnv::new(world))),
-        EnvKind::Robot => Err(LabError::EnvBuild(
-            "--env robot: the robot environment is not built into this binary yet".into(),
-        )),
+        EnvKind::Grid => {
+            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, || Ok(GridEnv::new(world)))
+        }
+        EnvKind::Robot => run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, || robot_env(world)),
     }
 }
 
 /// [`run_seed`] on environments made by `make`.
 pub fn run_seed_on<E: Env>(
     cfg: &RunConfig,
+    world: &World,
     dist: &DelayDist,
     seed: u64,
     mut observer: Option<Box<dyn Observer + Send>>,
@@ -163,7 +177,7 @@ pub fn run_seed_on<E: Env>(
     let mut learner = cfg.learner.build(env.num_states(), env.num_actions(), mem_limit)?;
     let seeds = SeedTree::new(seed);
     let config_toml = cfg.to_toml();
-    let facts = run_facts(cfg);
+    let facts = run_facts(cfg, world);
     let (run, env) = learn(
         env,
         &mut *learner,
@@ -177,8 +191,9 @@ pub fn run_seed_on<E: Env>(
     )?;
     let complete = run.steps_done == cfg.steps;
     let mut env = env;
-    let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, cfg.eval_steps, seeds, seed)?;
+    // Physics figures of the learning run (before evaluation resets the environment).
     let env_stats = env.stats();
+    let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, cfg.eval_steps, seeds, seed)?;
     let (policy_arrows, policy_probs, values) = policy_of(&env, &*learner);
     if let Some(o) = observer.as_mut() {
         o.on_finish(run.steps_done, complete);
@@ -456,6 +471,9 @@ pub fn run_all(
     ctl: Control<'_>,
 ) -> Result<RunOutcome, LabError> {
     let dist = cfg.validate()?;
+    if cfg.env == EnvKind::Robot {
+        robot_env(world)?;
+    }
     let seeds = cfg.seed_list();
     let parallel = rayon::current_num_threads().min(seeds.len());
     let limit = memory_limit(parallel);
