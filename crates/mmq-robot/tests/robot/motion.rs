@@ -205,3 +205,27 @@ fn start_rule() {
     let mut e2 = mmq_robot::RobotEnv::new(&w2, Default::default()).unwrap();
     assert_eq!(e2.reset(9, Start::World).unwrap(), w.respawn);
 }
+
+/// Noise off, the robot's cell sequence under random actions is the grid's
+/// (`World::transition`), on the open 9×9 world and in the maze.
+#[test]
+fn cells_follow_the_grid_dynamics() {
+    use rand::RngExt;
+    for (name, n) in [("paper-9x9", 600), ("maze-15x15", 600)] {
+        let mut e = env(name);
+        let w = e.world().clone();
+        let mut rng = mmq_core::seed::rng_from_seed(77);
+        let mut s = e.reset(8, Start::World).unwrap();
+        for i in 0..n {
+            let a = rng.random_range(0..4);
+            let (next, reward, event) = w.transition(s, Move::ALL[a]);
+            let st = e.step(a).unwrap();
+            assert_eq!(
+                (st.state, st.reward, st.event),
+                (next, reward, event),
+                "{name}, step {i}: {a} in {s}"
+            );
+            s = st.state;
+        }
+    }
+}
