@@ -8,8 +8,9 @@
 //! What a step writes (when it is inside the recording window):
 //! - at the step's start: `/rl/decision`;
 //! - during the step: `/robot/pose` + `/tf` for each kept pose sample (robot: the trace,
-//!   thinned to `pose_rate_hz`; grid, or a step without a trace: one pose at the centre
-//!   of s_{t+1}, at the step's end) and `/sim/contact` for each contact change;
+//!   thinned to `pose_rate_hz`, plus its last sample, the pose at the step's end; grid, or
+//!   a step without a trace: one pose at the centre of s_{t+1}, at the step's end) and
+//!   `/sim/contact` for each contact change;
 //! - at the step's end: `/rl/reward/emitted` (if a non-zero reward was emitted),
 //!   `/rl/reward/delivered` (if anything was delivered), `/rl/teleport` and a fresh
 //!   `/viz/arena` + `/viz/robot` (after an action in the goal).
@@ -908,12 +909,14 @@ impl McapRecorder {
         let period = if self.config.pose_rate_hz > 0.0 { 1.0 / self.config.pose_rate_hz } else { 0.0 };
         let off = self.time_offset_s;
         let mut contacts = trace.contacts.iter().peekable();
-        for p in &trace.poses {
+        let last = trace.poses.len() - 1;
+        for (i, p) in trace.poses.iter().enumerate() {
             let time = p.time_s + off;
             while let Some(c) = contacts.next_if(|c| c.time_s + off <= time) {
                 self.write_contact(rec.t, c);
             }
-            if period == 0.0 || time + 1e-9 >= self.next_pose_s {
+            // The step's last sample (its end pose, after a teleport too) is always kept.
+            if period == 0.0 || time + 1e-9 >= self.next_pose_s || i == last {
                 self.write_pose(ns(time), p.x, p.y, p.theta);
                 if period > 0.0 {
                     self.next_pose_s = ((time / period + 1e-9).floor() + 1.0) * period;

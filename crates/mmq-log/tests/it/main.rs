@@ -3,6 +3,7 @@
 mod common;
 mod compare;
 mod render;
+mod robot;
 mod roundtrip;
 mod schemas;
 mod truncation;

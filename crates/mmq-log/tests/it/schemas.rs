@@ -92,7 +92,7 @@ fn check(schema: &Value, v: &Value, path: &str) -> Result<(), String> {
 
 /// Checks every message of a file against its channel's schema; returns messages per
 /// schema name.
-fn validate_all(path: &Path) -> HashMap<String, usize> {
+pub fn validate_all(path: &Path) -> HashMap<String, usize> {
     let bytes = std::fs::read(path).unwrap();
     let mut per_schema = HashMap::new();
     let mut schemas: HashMap<String, Value> = HashMap::new();
@@ -181,7 +181,7 @@ fn every_message_validates_against_its_schema() {
 
 /// The Python interpreter with `mcap` and `jsonschema`: `tools/.venv` first, then the
 /// `python3` on the PATH.
-fn python_with_mcap() -> Option<PathBuf> {
+pub fn python_with_mcap() -> Option<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let candidates = [root.join("tools/.venv/bin/python"), PathBuf::from("python3")];
     candidates.into_iter().find(|py| {
