@@ -23,6 +23,14 @@ pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
     if count <= 1 {
         return xs.iter().position(|&x| x == best).unwrap_or(0);
     }
+    pick_tie(xs, best, count, rng)
+}
+
+/// One of the `count` (≥ 2) indices of `xs` whose value equals `best`, uniformly at
+/// random: exactly the draw and the choice of [`argmax_random_tie`], for callers that
+/// keep the maximum and its count cached.
+#[inline]
+pub fn pick_tie(xs: &[f64], best: f64, count: usize, rng: &mut Rng) -> usize {
     let mut k = rng.random_range(0..count);
     for (i, &x) in xs.iter().enumerate() {
         if x == best {
@@ -32,7 +40,7 @@ pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
             k -= 1;
         }
     }
-    unreachable!("count ties were found above")
+    unreachable!("count ties of best are in xs")
 }
 
 /// ε-greedy: with probability ε a uniformly random action (`true`), else `greedy()`.
