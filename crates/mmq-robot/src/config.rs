@@ -210,10 +210,10 @@ impl Default for RobotConfig {
 }
 
 /// The `[robot]` table as written: a preset (default `turtlebot3-burger`) and optional
-/// overrides of every field of [`RobotConfig`].
+/// overrides of every field of [`RobotConfig`]; each field means (and has the unit of)
+/// the field of the same name there.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-#[allow(missing_docs)]
 pub struct RobotTable {
     pub preset: Option<Preset>,
     pub wheel_base_m: Option<f64>,

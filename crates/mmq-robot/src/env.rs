@@ -165,6 +165,11 @@ impl RobotEnv {
         })
     }
 
+    /// [`RobotEnv::new`] with the world's own configuration ([`RobotConfig::from_world`]).
+    pub fn from_world(world: &World) -> Result<RobotEnv, RobotError> {
+        RobotEnv::new(world, RobotConfig::from_world(world)?)
+    }
+
     /// The resolved configuration.
     pub fn config(&self) -> &RobotConfig {
         &self.cfg
@@ -350,7 +355,9 @@ impl RobotEnv {
         let mut pose = *rb.position();
         let travel = lv.length() as f64 * self.cfg.dt_s;
         let gap = self.wall_gap(pose.translation.x as f64, pose.translation.y as f64);
-        if gap <= pred + 2.0 * travel + FREE_FLIGHT_MARGIN_M {
+        // A non-finite state is not free: it goes to rapier, which quarantines it.
+        let free = gap > pred + 2.0 * travel + FREE_FLIGHT_MARGIN_M;
+        if !free {
             return false;
         }
         let h = params.dt / substeps as Real;

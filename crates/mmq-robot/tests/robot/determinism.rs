@@ -4,7 +4,7 @@
 use mmq_core::env::check_determinism;
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start};
-use mmq_robot::{NoiseConfig, RobotConfig, RobotEnv};
+use mmq_robot::{NoiseConfig, Preset, RobotConfig, RobotEnv};
 use rand::RngExt;
 
 fn make(world: &str, cfg: RobotConfig) -> RobotEnv {
@@ -63,13 +63,16 @@ fn reset_replays() {
 }
 
 /// Free flight (rapier skipped far from walls) is bit-identical to stepping rapier on
-/// every physics step.
+/// every physics step, for every preset, with noise.
 #[test]
 fn free_flight_is_exact() {
-    for world in ["paper-9x9", "maze-15x15"] {
-        let on = digest(&mut make(world, RobotConfig { free_flight: true, ..noisy() }), 21, 120);
-        let off = digest(&mut make(world, RobotConfig { free_flight: false, ..noisy() }), 21, 120);
-        assert_eq!(on, off, "{world}");
+    for preset in Preset::ALL {
+        for world in ["paper-9x9", "maze-15x15"] {
+            let cfg = RobotConfig { noise: Some(NoiseConfig::default()), ..preset.config() };
+            let on = digest(&mut make(world, RobotConfig { free_flight: true, ..cfg.clone() }), 21, 100);
+            let off = digest(&mut make(world, RobotConfig { free_flight: false, ..cfg }), 21, 100);
+            assert_eq!(on, off, "{preset} on {world}");
+        }
     }
 }
 

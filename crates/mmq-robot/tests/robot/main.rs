@@ -7,7 +7,7 @@ mod motion;
 mod trace;
 
 use mmq_core::World;
-use mmq_robot::{RobotConfig, RobotEnv};
+use mmq_robot::RobotEnv;
 
 /// A shipped world by name.
 pub fn world(name: &str) -> World {
@@ -16,9 +16,7 @@ pub fn world(name: &str) -> World {
 
 /// The environment of a shipped world with its own configuration.
 pub fn env(name: &str) -> RobotEnv {
-    let w = world(name);
-    let cfg = RobotConfig::from_world(&w).unwrap();
-    RobotEnv::new(&w, cfg).unwrap()
+    RobotEnv::from_world(&world(name)).unwrap()
 }
 
 /// A named figure from `Env::stats`.
