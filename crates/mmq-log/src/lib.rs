@@ -1,6 +1,6 @@
 //! mmq-log: MCAP run logs — the [`McapRecorder`] (an [`mmq_core::Observer`]), a reader
-//! that recovers what it can from damaged files ([`read_log`]), a [`summary`], an SVG
-//! [`render`] of the trajectory, and [`compare`] for checking that two runs match.
+//! that recovers what it can from damaged files ([`read_log`]), a [`summary()`], an SVG
+//! [`render()`] of the trajectory, and [`compare()`] for checking that two runs match.
 //!
 //! Logs are MCAP files with JSON messages described by `jsonschema` schemas, in zstd
 //! chunks. Geometry uses Foxglove's well-known schemas so the Foxglove app draws it;

@@ -958,3 +958,46 @@ pub(crate) fn heatmap(world: &World, log_time: u64, field: &str, per_cell: &[f64
         data: base64::engine::general_purpose::STANDARD.encode(&bytes),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_keep_the_first_and_last_steps() {
+        let w = StepWindow { first: 3, last: 2, total: 10 };
+        let kept: Vec<u64> = (0..12).filter(|&t| w.contains(t)).collect();
+        assert_eq!(kept, vec![0, 1, 2, 8, 9, 10, 11]);
+        // Overlapping windows keep everything; empty ones nothing before the end.
+        let all = StepWindow { first: 6, last: 6, total: 10 };
+        assert!((0..10).all(|t| all.contains(t)));
+        let none = StepWindow { first: 0, last: 0, total: 10 };
+        assert!((0..10).all(|t| !none.contains(t)));
+    }
+
+    #[test]
+    fn recorder_can_move_to_another_thread() {
+        fn send<T: Send>() {}
+        send::<McapRecorder>();
+    }
+
+    #[test]
+    fn trace_period_follows_the_pose_rate() {
+        let mut c = RecorderConfig::new("x.mcap");
+        assert_eq!(c.trace_period_s(), 0.1);
+        c.pose_rate_hz = 0.0;
+        assert_eq!(c.trace_period_s(), RecorderConfig::FULL_TRACE_PERIOD_S);
+    }
+
+    #[test]
+    fn heatmap_rows_go_up_from_the_bottom() {
+        let w = World::parse("map = \"\"\"\nG.\n.S\n\"\"\"", "t").unwrap();
+        let g = heatmap(&w, 5, "v", &[1.0, 2.0, 3.0, 4.0]);
+        let bytes = base64::engine::general_purpose::STANDARD.decode(&g.data).unwrap();
+        let vals: Vec<f32> = bytes.chunks(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
+        // Bottom row (cells 2, 3) first.
+        assert_eq!(vals, vec![3.0, 4.0, 1.0, 2.0]);
+        assert_eq!((g.column_count, g.row_stride, g.cell_stride), (2, 8, 4));
+        assert_eq!(g.timestamp, m::Time { sec: 0, nsec: 5 });
+    }
+}
