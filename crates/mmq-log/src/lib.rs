@@ -21,6 +21,8 @@ pub mod summary;
 pub use compare::{Mismatch, compare};
 pub use error::LogError;
 pub use reader::{LogAttachment, LogContents, PoseStamp, ReadStop, Stamped, TopicInfo, read_log};
-pub use recorder::{McapRecorder, RecordStats, RecorderConfig, StepWindow, TopicStats};
+pub use recorder::{
+    McapRecorder, OutcomeHandle, RecordOutcome, RecordStats, RecorderConfig, StepWindow, TopicStats,
+};
 pub use render::{render, render_svg};
 pub use summary::{LogSummary, summary};

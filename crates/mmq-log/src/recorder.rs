@@ -24,6 +24,7 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use base64::Engine;
@@ -235,7 +236,20 @@ pub struct McapRecorder {
     prev_recorded: bool,
     last_flush_step: u64,
     last_flush: Instant,
+    outcome: OutcomeHandle,
 }
+
+/// How a recording ended, as seen through an [`OutcomeHandle`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RecordOutcome {
+    /// What was written (set by `finish`).
+    pub stats: Option<RecordStats>,
+    /// The first error met while recording, as text (the file is named in it).
+    pub error: Option<String>,
+}
+
+/// Shared view of a recorder's [`RecordOutcome`]; see [`McapRecorder::outcome_handle`].
+pub type OutcomeHandle = Arc<Mutex<RecordOutcome>>;
 
 impl std::fmt::Debug for McapRecorder {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -308,6 +322,7 @@ impl McapRecorder {
             prev_recorded: true,
             last_flush_step: 0,
             last_flush: Instant::now(),
+            outcome: OutcomeHandle::default(),
         })
     }
 
@@ -513,10 +528,23 @@ impl McapRecorder {
             }
         }
         self.sync_stats();
-        match self.error.take() {
+        let result = match self.error.take() {
             Some(e) => Err(e),
             None => Ok(self.stats.clone()),
+        };
+        if let Ok(mut o) = self.outcome.lock() {
+            o.stats = Some(self.stats.clone());
+            if let Err(e) = &result {
+                o.error.get_or_insert_with(|| e.to_string());
+            }
         }
+        result
+    }
+
+    /// A handle that receives the outcome when the recorder finishes, for owners that
+    /// only keep the recorder as a `Box<dyn Observer>`.
+    pub fn outcome_handle(&self) -> OutcomeHandle {
+        Arc::clone(&self.outcome)
     }
 
     fn end_time_ns(&self) -> u64 {

@@ -166,9 +166,12 @@ fn robot_run_thins_poses_and_records_contacts() {
     let path = dir.path().join("robot.mcap");
     let world = common::world("room-12x6");
     let mut rec = McapRecorder::create(RecorderConfig::new(&path)).unwrap();
+    let outcome = rec.outcome_handle();
     let steps = common::run_robot(&world, &mut rec, 200, 5);
     let stats = rec.stats().clone();
     drop(rec);
+    let outcome = outcome.lock().unwrap().clone();
+    assert_eq!((outcome.stats.as_ref(), outcome.error), (Some(&stats), None));
     let log = read_log(&path).unwrap();
     assert!(log.complete);
     assert_same_topics(&stats, &log);
@@ -252,4 +255,20 @@ fn creating_in_an_impossible_place_names_the_file() {
     assert!(err.to_string().contains("missing.mcap"), "{err}");
     let err = read_log(&blocker).unwrap_err();
     assert!(matches!(err, mmq_log::LogError::NotMcap { .. }) || err.to_string().contains("file"), "{err}");
+}
+
+#[test]
+fn a_failing_disk_is_reported_not_panicked() {
+    if !std::path::Path::new("/dev/full").exists() {
+        println!("note: skipped: no /dev/full on this system");
+        return;
+    }
+    let mut cfg = RecorderConfig::new("/dev/full");
+    cfg.flush_every_steps = 10;
+    let Ok(mut rec) = McapRecorder::create(cfg) else { return };
+    let outcome = rec.outcome_handle();
+    common::run_grid(&common::world("paper-3x3"), &mut rec, 50, 1, 0);
+    let e = outcome.lock().unwrap().error.clone().expect("an error on a full disk");
+    assert!(e.contains("/dev/full"), "{e}");
+    assert!(rec.take_error().is_some());
 }
