@@ -28,8 +28,13 @@ pub enum Command {
     World(WorldArgs),
     /// List the learners, one a line, name first.
     Learners,
+    /// Summarise, render or verify a recorded MCAP run.
+    Replay(ReplayArgs),
     /// Reproduce the paper's figures and write a report (report.md, SVG, PNG, CSV).
     Paper(PaperArgs),
+    /// Run a sweep spec (worlds × learners × delays × ... × seeds), resumable and
+    /// shardable; `mmq sweep report DIR`, `mmq sweep merge DIR... --out DIR`.
+    Sweep(SweepArgs),
 }
 
 /// Which fidelities `mmq paper` runs Figs. 6–12 on.
@@ -146,6 +151,18 @@ pub struct RunArgs {
     /// Do not write the Q-tables.
     #[arg(long)]
     pub no_tables: bool,
+    /// Record every seed's trajectory to MCAP (trajectory-seed<N>.mcap in --out).
+    #[arg(long)]
+    pub record: bool,
+    /// Robot pose samples per second of simulated time in the recording (0: every physics step).
+    #[arg(long, default_value_t = 10.0)]
+    pub record_rate: f64,
+    /// Record only the first N steps (and the last --record-last N).
+    #[arg(long)]
+    pub record_first: Option<u64>,
+    /// Record only the last N steps (and the first --record-first N).
+    #[arg(long)]
+    pub record_last: Option<u64>,
     /// Output directory.
     #[arg(long, short, default_value = "runs/latest")]
     pub out: PathBuf,
@@ -174,5 +191,75 @@ pub enum WorldAction {
     Show {
         /// World file.
         file: PathBuf,
+    },
+}
+
+/// Flags of `mmq replay`.
+#[derive(Debug, Args)]
+pub struct ReplayArgs {
+    /// The MCAP file (trajectory-seed<N>.mcap).
+    pub file: PathBuf,
+    /// Print the summary (the default when nothing else is asked).
+    #[arg(long)]
+    pub summary: bool,
+    /// Draw the arena and the trajectory to an SVG file.
+    #[arg(long)]
+    pub render: Option<PathBuf>,
+    /// Re-run the simulation from the file's metadata and check it matches bit for bit.
+    #[arg(long)]
+    pub verify: bool,
+    /// First decision step to draw.
+    #[arg(long)]
+    pub from: Option<u64>,
+    /// Last decision step to draw.
+    #[arg(long)]
+    pub to: Option<u64>,
+}
+
+/// Flags of `mmq sweep` (see docs/sweeps.md).
+#[derive(Debug, Args)]
+#[command(args_conflicts_with_subcommands = true, subcommand_negates_reqs = true)]
+pub struct SweepArgs {
+    /// Report or merge instead of running.
+    #[command(subcommand)]
+    pub action: Option<SweepAction>,
+    /// The sweep spec (TOML).
+    #[arg(required = true)]
+    pub spec: Option<PathBuf>,
+    /// Output directory: results.csv, sweep.json, cells/<cell-id>/seed-<n>.json. Finished
+    /// jobs found there are skipped (resume).
+    #[arg(long, short, required = true)]
+    pub out: Option<PathBuf>,
+    /// Run only the K-th of N disjoint parts of the jobs (1 <= K <= N), e.g. 2/8.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Check the spec and print the cells and jobs without running anything.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// No progress bar and no line per finished job.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// What `mmq sweep` does besides running.
+#[derive(Debug, Subcommand)]
+pub enum SweepAction {
+    /// Means and 95 % intervals per cell: summary.csv, report.md and a figure per numeric
+    /// swept axis, in DIR/report (or --out).
+    Report {
+        /// A sweep output directory.
+        dir: PathBuf,
+        /// Where to write the report (default: DIR/report).
+        #[arg(long, short)]
+        out: Option<PathBuf>,
+    },
+    /// Merge the output directories of shards (or of any runs of one spec) into --out.
+    Merge {
+        /// Sweep output directories.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// The merged directory.
+        #[arg(long, short)]
+        out: PathBuf,
     },
 }

@@ -12,7 +12,9 @@
 mod cli;
 mod paper;
 mod progress;
+mod replay;
 mod run;
+mod sweep;
 mod world_cmd;
 
 use std::process::ExitCode;
@@ -78,6 +80,8 @@ fn main() -> ExitCode {
         cli::Command::Run(a) => run::run(a, &stop),
         cli::Command::World(a) => world_cmd::world(a),
         cli::Command::Paper(a) => paper::paper(a, &stop),
+        cli::Command::Sweep(a) => sweep::sweep(a, &stop),
+        cli::Command::Replay(a) => replay::replay(a),
         cli::Command::Learners => {
             for (_, name, desc) in mmq_learn::catalogue() {
                 println!("{name:<16} {desc}");

@@ -25,6 +25,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
             params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
             lambda_hat: a.lambda_hat,
             max_delay: a.max_delay,
+            beyond: Default::default(),
         },
         delay: a.delay.clone(),
         steps: a.steps,
@@ -35,6 +36,11 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         baseline: !a.no_baseline,
         save_tables: !a.no_tables,
         ledger: false,
+        record: a.record.then(|| mmq_lab::config::RecordSettings {
+            pose_rate_hz: a.record_rate,
+            first: a.record_first,
+            last: a.record_last,
+        }),
     };
     cfg.validate()?;
     Ok(cfg)
@@ -49,7 +55,8 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let pb = progress::bar(total, cfg.learner.kind.name(), a.quiet);
     let progress = |n: u64| pb.inc(n);
     let ctl = Control { stop, progress: &progress };
-    let outcome = run_all(&cfg, &world, &|_| Ok(None), ctl)?;
+    let factory = mmq_lab::record::recorder_factory(&cfg, &a.out);
+    let outcome = run_all(&cfg, &world, &factory, ctl)?;
     pb.finish_and_clear();
     let (summary, _files) = write_results(&a.out, &cfg, &world, &outcome.results, !outcome.interrupted)?;
     print_summary(&summary);

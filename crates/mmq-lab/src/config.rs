@@ -58,6 +58,30 @@ pub struct RunConfig {
     pub save_tables: bool,
     /// Keep the delay channel's ground-truth ledger (needed by the oracle and logs).
     pub ledger: bool,
+    /// Record every seed's trajectory to MCAP (`trajectory-seed<N>.mcap` in the output
+    /// folder); absent: no recording, and no cost.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub record: Option<RecordSettings>,
+}
+
+/// What `--record` writes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RecordSettings {
+    /// Robot pose samples per second of simulated time (0: every physics step).
+    pub pose_rate_hz: f64,
+    /// Record only the first this many steps (with `last`; absent: all steps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub first: Option<u64>,
+    /// Record only the last this many steps (with `first`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub last: Option<u64>,
+}
+
+impl Default for RecordSettings {
+    fn default() -> Self {
+        Self { pose_rate_hz: 10.0, first: None, last: None }
+    }
 }
 
 impl Default for RunConfig {
@@ -75,6 +99,7 @@ impl Default for RunConfig {
             baseline: true,
             save_tables: true,
             ledger: false,
+            record: None,
         }
     }
 }
@@ -102,6 +127,15 @@ impl RunConfig {
             return Err(LabError::param("--eval-steps", self.eval_steps, "use at most 10^10 steps"));
         }
         self.learner.validate()?;
+        if let Some(r) = &self.record
+            && !(r.pose_rate_hz.is_finite() && r.pose_rate_hz >= 0.0 && r.pose_rate_hz <= 10_000.0)
+        {
+            return Err(LabError::param(
+                "--record-rate",
+                r.pose_rate_hz,
+                "use poses per second in [0, 10000]; 0 records every physics step",
+            ));
+        }
         Ok(DelayDist::parse(&self.delay)?)
     }
 

@@ -32,6 +32,20 @@ pub enum LabError {
         /// What is wrong.
         message: String,
     },
+    /// A sweep spec that cannot be used, with where the problem is.
+    #[error("{file}:{line}:{column}: {field}: {message}")]
+    Spec {
+        /// The spec file.
+        file: String,
+        /// Line, from 1.
+        line: usize,
+        /// Column (characters), from 1.
+        column: usize,
+        /// The field (`delay`, or `delay[2]` for an item of a list).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
     /// The environment failed during the run.
     #[error("seed {seed}: {source}")]
     Env {
@@ -63,6 +77,7 @@ impl LabError {
                 | LabError::Learner(_)
                 | LabError::InvalidParam { .. }
                 | LabError::Config { .. }
+                | LabError::Spec { .. }
                 | LabError::EnvBuild(_)
         )
     }

@@ -10,8 +10,10 @@ pub mod config;
 pub mod error;
 pub mod output;
 pub mod paper;
+pub mod record;
 pub mod runner;
 pub mod summary;
+pub mod sweep;
 
 pub use config::{EnvKind, RunConfig};
 pub use error::LabError;
