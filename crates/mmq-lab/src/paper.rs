@@ -66,6 +66,7 @@ impl PaperOptions {
             baseline: false,
             save_tables: false,
             ledger: false,
+            record: None,
         }
     }
 }
