@@ -8,19 +8,73 @@
 //!                            + α [ r_t + γ max_{λ̂', a} Q(s'_{t−λ̂}, a, λ̂') ]   eq. (7)
 //! ```
 //!
-//! Speed-up, exact: the target's max over all models and actions of s' is the same for
-//! every model, so it is cached per state (`best[s]`) with the number of entries that
-//! attain it; an update changes one entry, and the cache is rescanned only when the
-//! last entry attaining the max decreases. The result is bit-identical to the plain
-//! transcription in [`crate::mmq_reference`] (tested on long random traces).
+//! Speed-up, exact (every table entry and every decision bit-identical to the plain
+//! transcription in [`crate::mmq_reference`], random tie-breaking draws included; see
+//! docs/performance.md for the measurements):
+//!
+//! - The target's max over all models and actions of s' is the same for every model, so
+//!   it is cached per state: the max, how many entries attain it, and which one when it
+//!   is unique ([`Top`]).
+//! - The same is kept per column (s, a): the max over the N models of Q(s, a, ·). An
+//!   update changes one entry; unless that entry was or becomes its column's maximiser
+//!   (about one update in twenty on the paper's grid) one compare is all the bookkeeping.
+//!   Otherwise the column's cache follows the change, and is rebuilt by a scan of its N
+//!   entries only when its last maximiser decreases; the state's cache is then combined
+//!   from its |A| column caches.
+//! - Acting reads the state's cache: no scan unless the maximum is tied, and then the
+//!   same draw and the same choice as [`crate::policy::argmax_random_tie`] ([`pick_tie`]).
+//! - The last N steps are kept twice in a ring of 2N, so the N updates of one step walk
+//!   one slice without a modulo per model; the loop is compiled with |A| = 4 known for
+//!   the paper's moves. (1 − α) is computed once; eq. (7) is otherwise evaluated with
+//!   exactly the reference's operations in the reference's order.
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::policy::{epsilon_greedy, pick_tie};
 use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::{Decision, Experience, Learner, Table};
 
-/// Multiple-Model Q-learning with an exact cached max.
+/// The cached maximum of a set of table entries (a state's block or one column).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Top {
+    /// The maximum.
+    max: f64,
+    /// How many entries equal `max` (≥ 1).
+    count: u32,
+    /// Which entry is the maximiser when `count` is 1: λ̂ × |A| + a in a block, λ̂ in a
+    /// column.
+    first: u32,
+}
+
+impl Top {
+    /// Follows a change of entry `j` from `old` to `new`. Returns false when the cache
+    /// cannot tell the result (the last maximiser decreased, or the one left is
+    /// unknown) and must be rebuilt.
+    #[inline(always)]
+    fn follow(&mut self, j: usize, old: f64, new: f64) -> bool {
+        if new > self.max {
+            *self = Top { max: new, count: 1, first: j as u32 };
+        } else if old == self.max {
+            if new != old {
+                self.count -= 1;
+                return self.count > 1;
+            }
+        } else if new == self.max {
+            self.count += 1;
+        }
+        true
+    }
+}
+
+/// (s, a, s') of one past step.
+#[derive(Clone, Copy, Debug, Default)]
+struct Past {
+    s: u32,
+    a: u32,
+    s2: u32,
+}
+
+/// Multiple-Model Q-learning with exact cached maxima.
 #[derive(Clone, Debug)]
 pub struct MultipleModelQ {
     p: Params,
@@ -29,28 +83,75 @@ pub struct MultipleModelQ {
     num_actions: usize,
     /// Q[(s × N + λ̂) × |A| + a]: one contiguous block of N × |A| values per state.
     q: Vec<f64>,
-    /// max_{λ̂, a} Q(s, a, λ̂), kept exact.
-    best: Vec<f64>,
-    /// How many entries of the block of s equal `best[s]`.
-    best_count: Vec<u32>,
-    /// (s, a, s') of the last N steps, by t mod N.
-    history: Vec<(u32, u32, u32)>,
+    /// Cache of column (s, a), max_λ̂ Q(s, a, λ̂), at [s × |A| + a].
+    cols: Vec<Top>,
+    /// Cache of the block of s, max_{λ̂, a} Q(s, a, λ̂), combined from its columns.
+    top: Vec<Top>,
+    /// (s, a, s') of the last N steps at t mod N and again at t mod N + N.
+    history: Vec<Past>,
     /// How often each model was λ̂* of a greedy decision.
     chosen: Vec<u64>,
+}
+
+/// max(x, y) by `>` (one `maxsd`).
+#[inline(always)]
+fn gt_max(x: f64, y: f64) -> f64 {
+    if x > y { x } else { y }
+}
+
+/// Rebuilds the cache of column `a` of `block` (N rows of |A| = `a_n` values; `A` is
+/// |A| when known at compile time, else 0) by scanning its N entries.
+#[cold]
+#[inline(never)]
+fn scan_column<const A: usize>(block: &[f64], a: usize, a_n: usize) -> Top {
+    if A == 0 {
+        column_top(block.chunks_exact(a_n).map(|row| row[a]))
+    } else {
+        column_top(block.as_chunks::<A>().0.iter().map(|row| row[a % A]))
+    }
+}
+
+/// Max, count and first maximiser of a column's values, in one pass.
+#[inline(always)]
+fn column_top(col: impl Iterator<Item = f64>) -> Top {
+    let mut top = Top { max: f64::NEG_INFINITY, count: 0, first: 0 };
+    for (l, x) in col.enumerate() {
+        if x > top.max {
+            top = Top { max: x, count: 1, first: l as u32 };
+        } else if x == top.max {
+            top.count += 1;
+        }
+    }
+    top
+}
+
+/// The cache of a block from the caches of its |A| columns.
+#[inline]
+fn combine(cols: &[Top], a_n: usize) -> Top {
+    let max = cols.iter().fold(f64::NEG_INFINITY, |m, c| gt_max(c.max, m));
+    let mut top = Top { max, count: 0, first: 0 };
+    for (a, c) in cols.iter().enumerate() {
+        if c.max == max {
+            top.count += c.count;
+            top.first = c.first * a_n as u32 + a as u32;
+        }
+    }
+    top
 }
 
 impl MultipleModelQ {
     /// N = `max_delay` + 1 models over `num_states` × `num_actions`, every entry q0.
     pub fn new(p: Params, max_delay: usize, num_states: usize, num_actions: usize) -> Self {
         let n = max_delay + 1;
+        let all = |count: usize| Top { max: p.q0, count: count as u32, first: 0 };
         Self {
             p,
             n,
             num_actions,
             q: vec![p.q0; num_states * n * num_actions],
-            best: vec![p.q0; num_states],
-            best_count: vec![(n * num_actions) as u32; num_states],
-            history: vec![(0, 0, 0); n],
+            cols: vec![all(n); num_states * num_actions],
+            top: vec![all(n * num_actions); num_states],
+            history: vec![Past::default(); 2 * n],
             chosen: vec![0; n],
         }
     }
@@ -87,7 +188,7 @@ impl MultipleModelQ {
         let block = self.block(s);
         let mut best = (f64::NEG_INFINITY, 0);
         for l in 0..self.n {
-            let v = max_of(&block[l * a_n..(l + 1) * a_n]);
+            let v = crate::max_of(&block[l * a_n..(l + 1) * a_n]);
             if v > best.0 {
                 best = (v, l);
             }
@@ -95,33 +196,93 @@ impl MultipleModelQ {
         best.1
     }
 
+    /// The greedy choice in s as a block index λ̂ × |A| + a: the cached maximiser, or
+    /// the tie-break of [`crate::policy::argmax_random_tie`] (same draw, same choice)
+    /// when it is tied.
     #[inline]
-    fn set(&mut self, s: usize, i: usize, new: f64) {
-        let old = self.q[i];
-        self.q[i] = new;
-        let m = self.best[s];
-        if new > m {
-            self.best[s] = new;
-            self.best_count[s] = 1;
-        } else if new == m {
-            if old != m {
-                self.best_count[s] += 1;
-            }
-        } else if old == m {
-            self.best_count[s] -= 1;
-            if self.best_count[s] == 0 {
-                self.rescan(s);
+    fn greedy_index(&self, s: State, rng: &mut Rng) -> usize {
+        let top = self.top[s];
+        if top.count == 1 {
+            top.first as usize
+        } else {
+            pick_tie(self.block(s), top.max, top.count as usize, rng)
+        }
+    }
+
+    /// Records step t in the history; returns its position `now` (history[now − λ̂] is
+    /// step t − λ̂) and the number of updates, min(t, N − 1) + 1.
+    #[inline]
+    fn remember(&mut self, e: &Experience<'_>) -> (usize, usize) {
+        assert!(
+            e.action < self.num_actions && e.state < self.top.len() && e.next_state < self.top.len(),
+            "step outside the tables: {e:?}"
+        );
+        let n = self.n;
+        let t = e.t as usize;
+        let now = t % n + n;
+        let past = Past { s: e.state as u32, a: e.action as u32, s2: e.next_state as u32 };
+        self.history[now - n] = past;
+        self.history[now] = past;
+        (now, t.min(n - 1) + 1)
+    }
+
+    /// Algorithm 1's updates of one step, eq. (7), for λ̂ = 0..=min(t, N − 1) in
+    /// increasing λ̂. `A` is |A| when known at compile time, else 0.
+    #[inline]
+    fn update<const A: usize>(&mut self, e: &Experience<'_>) {
+        let (now, len) = self.remember(e);
+        let n = self.n;
+        let a_n = if A == 0 { self.num_actions } else { A };
+        let (alpha, gamma, r) = (self.p.alpha, self.p.gamma, e.reward);
+        let one_minus_alpha = 1.0 - alpha;
+        let Self { q, cols, top, history, .. } = self;
+        for (l, h) in history[now + 1 - len..=now].iter().rev().enumerate() {
+            let s = h.s as usize;
+            // `a < |A|` was checked when the step was recorded.
+            let a = if A == 0 { h.a as usize } else { h.a as usize % A };
+            let m = top[h.s2 as usize].max;
+            let i = (s * n + l) * a_n + a;
+            let old = q[i];
+            // eq. (7)
+            let new = one_minus_alpha * old + alpha * (r + gamma * m);
+            q[i] = new;
+            let c = s * a_n + a;
+            // Nothing else changes unless the entry was or becomes its column's maximiser.
+            if gt_max(new, old) >= cols[c].max {
+                if !cols[c].follow(l, old, new) {
+                    cols[c] = scan_column::<A>(&q[s * n * a_n..(s + 1) * n * a_n], a, a_n);
+                }
+                top[s] = combine(&cols[s * a_n..(s + 1) * a_n], a_n);
             }
         }
     }
 
-    #[cold]
-    fn rescan(&mut self, s: usize) {
-        let block = self.block(s);
-        let m = max_of(block);
-        let c = block.iter().filter(|&&x| x == m).count() as u32;
-        self.best[s] = m;
-        self.best_count[s] = c;
+    /// Checks the caches against full scans (tests).
+    #[cfg(test)]
+    fn check_caches(&self) {
+        let a_n = self.num_actions;
+        let scan = |xs: &[f64]| {
+            let max = crate::max_of(xs);
+            (max, xs.iter().filter(|&&x| x == max).count() as u32, xs.iter().position(|&x| x == max).unwrap())
+        };
+        for s in 0..self.top.len() {
+            let block = self.block(s);
+            let (max, count, first) = scan(block);
+            let t = self.top[s];
+            assert_eq!((t.max, t.count), (max, count), "state {s}");
+            if count == 1 {
+                assert_eq!(t.first as usize, first, "state {s}");
+            }
+            for a in 0..a_n {
+                let col: Vec<f64> = block.iter().skip(a).step_by(a_n).copied().collect();
+                let (max, count, first) = scan(&col);
+                let c = self.cols[s * a_n + a];
+                assert_eq!((c.max, c.count), (max, count), "state {s}, action {a}");
+                if count == 1 {
+                    assert_eq!(c.first as usize, first, "state {s}, action {a}");
+                }
+            }
+        }
     }
 }
 
@@ -132,11 +293,9 @@ impl Learner for MultipleModelQ {
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
         let a_n = self.num_actions;
-        let w = self.n * a_n;
-        let block = &self.q[s * w..(s + 1) * w];
         let mut model = 0;
         let (action, explored) = epsilon_greedy(self.p.epsilon, a_n, rng, |r| {
-            let i = argmax_random_tie(block, r);
+            let i = self.greedy_index(s, r);
             model = i / a_n;
             i % a_n
         });
@@ -148,25 +307,15 @@ impl Learner for MultipleModelQ {
 
     #[inline]
     fn observe(&mut self, e: &Experience<'_>) {
-        let t = e.t as usize;
-        let n = self.n;
-        let a_n = self.num_actions;
-        let (alpha, gamma, r) = (self.p.alpha, self.p.gamma, e.reward);
-        self.history[t % n] = (e.state as u32, e.action as u32, e.next_state as u32);
-        let upto = t.min(n - 1);
-        for l in 0..=upto {
-            let (s, a, s2) = self.history[(t - l) % n];
-            let (s, a) = (s as usize, a as usize);
-            let m = self.best[s2 as usize];
-            let i = (s * n + l) * a_n + a;
-            // eq. (7)
-            let new = (1.0 - alpha) * self.q[i] + alpha * (r + gamma * m);
-            self.set(s, i, new);
+        // The paper's four moves get a loop with |A| known at compile time.
+        match self.num_actions {
+            4 => self.update::<4>(e),
+            _ => self.update::<0>(e),
         }
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.block(s), rng) % self.num_actions
+        self.greedy_index(s, rng) % self.num_actions
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
@@ -197,7 +346,7 @@ impl Learner for MultipleModelQ {
     }
 
     fn reset_history(&mut self) {
-        self.history.iter_mut().for_each(|h| *h = (0, 0, 0));
+        self.history.iter_mut().for_each(|h| *h = Past::default());
     }
 }
 
@@ -242,34 +391,76 @@ mod tests {
         }
     }
 
+    /// One random trace through both learners: decisions (ε-greedy and greedy, with the
+    /// RNG streams compared afterwards), acting values and tables must agree bit for bit.
+    fn compare(p: Params, max_delay: usize, states: usize, actions: usize, steps: u64, seed: u64) {
+        let mut fast = MultipleModelQ::new(p, max_delay, states, actions);
+        let mut slow = MmqReference::new(p, max_delay, states, actions);
+        let mut env_rng = rng_from_seed(seed);
+        let (mut r1, mut r2) = (rng_from_seed(seed + 100), rng_from_seed(seed + 100));
+        let (mut v1, mut v2) = (vec![0.0; actions], vec![0.0; actions]);
+        let mut s = 0usize;
+        let ctx = format!("{p:?}, λ̂max {max_delay}, {states} states, {actions} actions, seed {seed}");
+        for t in 0..steps {
+            if t == steps / 2 {
+                // A new run on the same tables.
+                fast.reset_history();
+                slow.reset_history();
+            }
+            let t = if t >= steps / 2 { t - steps / 2 } else { t };
+            let d1 = fast.act(s, &mut r1);
+            let d2 = slow.act(s, &mut r2);
+            assert_eq!(d1, d2, "decision at t = {t}, {ctx}");
+            let g = env_rng.random_range(0..states);
+            assert_eq!(fast.greedy(g, &mut r1), slow.greedy(g, &mut r2), "greedy at t = {t}, {ctx}");
+            fast.action_values(g, &mut v1);
+            slow.action_values(g, &mut v2);
+            assert_eq!(v1, v2, "action values at t = {t}, {ctx}");
+            // Few next states and few reward values make ties and repeated states common.
+            let s2 = if env_rng.random_range(0..4) == 0 { s } else { env_rng.random_range(0..states) };
+            let r = match env_rng.random_range(0..10) {
+                0 => 10.0,
+                1 | 2 => -1.0,
+                3 => 9.0,
+                _ => 0.0,
+            };
+            fast.observe(&exp(t, s, d1.action, s2, r));
+            slow.observe(&exp(t, s, d1.action, s2, r));
+            if t % 997 == 0 {
+                fast.check_caches();
+            }
+            s = s2;
+        }
+        fast.check_caches();
+        let (a, b) = (fast.raw(), slow.raw());
+        assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "tables differ, {ctx}");
+        assert_eq!(r1.random::<u64>(), r2.random::<u64>(), "RNG streams diverged, {ctx}");
+    }
+
     /// The fast learner equals the plain transcription bit for bit, tables and
-    /// decisions, on long random traces with optimistic and zero initialisation.
+    /// decisions, on long random traces: optimistic, zero and negative initialisation,
+    /// ε = 0, the default and 1, α = 0 (everything stays tied) and α = 1, γ = 0, one
+    /// model, one action, one state.
     #[test]
     fn fast_equals_reference_bit_for_bit() {
-        for (q0, max_delay, states, seed) in [(10.0, 50, 9, 1u64), (0.0, 7, 5, 2), (20.0, 13, 81, 3)] {
-            let p = Params { alpha: 0.1, gamma: 0.9, epsilon: 0.1, q0 };
-            let mut fast = MultipleModelQ::new(p, max_delay, states, 4);
-            let mut slow = MmqReference::new(p, max_delay, states, 4);
-            let mut env_rng = rng_from_seed(seed);
-            let (mut r1, mut r2) = (rng_from_seed(seed + 100), rng_from_seed(seed + 100));
-            let mut s = 0usize;
-            for t in 0..20_000u64 {
-                let d1 = fast.act(s, &mut r1);
-                let d2 = slow.act(s, &mut r2);
-                assert_eq!(d1, d2, "decision at t = {t}");
-                let s2 = env_rng.random_range(0..states);
-                let r = match env_rng.random_range(0..10) {
-                    0 => 10.0,
-                    1 | 2 => -1.0,
-                    3 => 9.0,
-                    _ => 0.0,
-                };
-                fast.observe(&exp(t, s, d1.action, s2, r));
-                slow.observe(&exp(t, s, d1.action, s2, r));
-                s = s2;
-            }
-            let (a, b) = (fast.raw(), slow.raw());
-            assert!(a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()), "tables differ");
+        let p = |alpha, gamma, epsilon, q0| Params { alpha, gamma, epsilon, q0 };
+        let cases = [
+            (p(0.1, 0.9, 0.1, 10.0), 50, 9, 4, 1u64),
+            (p(0.1, 0.9, 0.1, 0.0), 7, 5, 4, 2),
+            (p(0.1, 0.9, 0.1, 20.0), 13, 81, 4, 3),
+            (p(0.1, 0.9, 0.0, 20.0), 50, 81, 4, 4),
+            (p(0.1, 0.9, 0.0, 0.0), 50, 81, 4, 5),
+            (p(0.1, 0.9, 1.0, 20.0), 50, 81, 4, 6),
+            (p(0.1, 0.9, 0.01, -5.0), 20, 12, 4, 7),
+            (p(0.0, 0.9, 0.05, 1.0), 5, 6, 4, 8),
+            (p(1.0, 0.0, 0.05, 0.0), 5, 6, 4, 9),
+            (p(0.5, 0.5, 0.0, 0.0), 0, 7, 4, 10),
+            (p(0.3, 0.9, 0.2, 2.0), 9, 4, 1, 11),
+            (p(0.3, 0.9, 0.2, 2.0), 3, 1, 3, 12),
+            (p(0.1, 0.99, 0.02, 0.0), 60, 30, 5, 13),
+        ];
+        for (p, max_delay, states, actions, seed) in cases {
+            compare(p, max_delay, states, actions, 20_000, seed);
         }
     }
 
