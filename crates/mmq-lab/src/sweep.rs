@@ -25,8 +25,8 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write as _;
 use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
@@ -1004,6 +1004,24 @@ fn baseline_key(spec: &SweepSpec, c: usize, seed: u64) -> String {
     )
 }
 
+/// An undelayed baseline shared by the jobs that need it.
+struct SharedBaseline {
+    /// Jobs still to use it.
+    users: AtomicUsize,
+    /// Its state.
+    slot: Mutex<Slot>,
+}
+
+/// The state of a shared baseline.
+enum Slot {
+    /// Not computed yet.
+    Pending,
+    /// The trajectory and its greedy evaluation.
+    Ready(Arc<(Trajectory, f64)>),
+    /// Unavailable: interrupted, failed, or no longer needed.
+    Gone,
+}
+
 /// The undelayed Q-learning run of cell `c`'s baseline: what [`run_seed`] runs as its
 /// baseline, as a run of its own.
 fn baseline_config(cfg: &RunConfig) -> RunConfig {
@@ -1051,25 +1069,25 @@ pub fn run_sweep(
         }
     }
 
-    // Distinct baselines of the pending jobs, in plan order.
-    let mut base_jobs: Vec<(String, usize, u64)> = Vec::new();
-    let mut base_seen = BTreeSet::new();
+    // Distinct baselines of the pending jobs, each with the number of jobs that use it.
+    let mut shared: HashMap<String, SharedBaseline> = HashMap::new();
+    let mut base_steps = 0;
     for &j in &pending {
         let (c, seed) = plan.job(j);
         if spec.config(c).baseline {
-            let k = baseline_key(spec, c, seed);
-            if base_seen.insert(k.clone()) {
-                base_jobs.push((k, c, seed));
-            }
+            let e = shared.entry(baseline_key(spec, c, seed)).or_insert_with(|| {
+                base_steps += spec.config(c).steps;
+                SharedBaseline { users: AtomicUsize::new(0), slot: Mutex::new(Slot::Pending) }
+            });
+            e.users.fetch_add(1, Ordering::Relaxed);
         }
     }
-    let steps: u64 = pending.iter().map(|&j| spec.config(plan.job(j).0).steps).sum::<u64>()
-        + base_jobs.iter().map(|b| spec.config(b.1).steps).sum::<u64>();
+    let steps: u64 = pending.iter().map(|&j| spec.config(plan.job(j).0).steps).sum::<u64>() + base_steps;
     events(&SweepEvent::Planned {
         jobs_total: plan.jobs(),
         jobs_here: here.len(),
         done: skipped,
-        baselines: base_jobs.len(),
+        baselines: shared.len(),
         steps,
     });
 
@@ -1083,32 +1101,35 @@ pub fn run_sweep(
         }
     };
     let halted = || ctl.stop.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
-    let dists: Vec<DelayDist> = match spec.configs.iter().map(RunConfig::validate).collect() {
-        Ok(d) => d,
-        Err(e) => return Err(e),
-    };
+    let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
     let optimum: Vec<f64> = spec.worlds.iter().map(|w| mmq_core::optimum(w).gain).collect();
 
-    // Phase 1: the baselines.
-    let baselines: HashMap<String, (Trajectory, f64)> = base_jobs
-        .par_iter()
-        .filter_map(|(k, c, seed)| {
-            if halted() {
-                return None;
-            }
-            let cfg = baseline_config(spec.config(*c));
-            match run_seed(&cfg, spec.world(*c), &DelayDist::None, *seed, None, ctl, limit) {
-                Ok(r) if r.complete => Some((k.clone(), (r.run, r.greedy_per_step))),
-                Ok(_) => None,
+    // The baseline of job (c, seed): computed by the first job that asks, awaited by
+    // the others that ask meanwhile, dropped after its last user.
+    let baseline_of = |c: usize, seed: u64| -> Option<Arc<(Trajectory, f64)>> {
+        let s = &shared[&baseline_key(spec, c, seed)];
+        let mut slot = s.slot.lock().unwrap_or_else(|p| p.into_inner());
+        if matches!(*slot, Slot::Pending) {
+            let cfg = baseline_config(spec.config(c));
+            *slot = match run_seed(&cfg, spec.world(c), &DelayDist::None, seed, None, ctl, limit) {
+                Ok(r) if r.complete => Slot::Ready(Arc::new((r.run, r.greedy_per_step))),
+                Ok(_) => Slot::Gone,
                 Err(e) => {
                     fail(e);
-                    None
+                    Slot::Gone
                 }
-            }
-        })
-        .collect();
+            };
+        }
+        let b = match &*slot {
+            Slot::Ready(b) => Some(b.clone()),
+            _ => None,
+        };
+        if s.users.fetch_sub(1, Ordering::AcqRel) == 1 {
+            *slot = Slot::Gone;
+        }
+        b
+    };
 
-    // Phase 2: the jobs.
     let finished = AtomicUsize::new(0);
     pending.par_iter().for_each(|&j| {
         if halted() {
@@ -1117,13 +1138,16 @@ pub fn run_sweep(
         let (c, seed) = plan.job(j);
         let cfg = spec.config(c);
         let base = if cfg.baseline {
-            match baselines.get(&baseline_key(spec, c, seed)) {
+            match baseline_of(c, seed) {
                 Some(b) => Some(b),
-                None => return, // interrupted in phase 1
+                None => return, // interrupted or failed
             }
         } else {
             None
         };
+        if halted() {
+            return;
+        }
         let run_cfg = RunConfig { baseline: false, ..cfg.clone() };
         let mut r: SeedResult = match run_seed(&run_cfg, spec.world(c), &dists[c], seed, None, ctl, limit) {
             Ok(r) => r,
@@ -1132,9 +1156,9 @@ pub fn run_sweep(
         if !r.complete {
             return;
         }
-        if let Some((traj, greedy)) = base {
-            r.baseline = Some(traj.clone());
-            r.baseline_greedy_per_step = Some(*greedy);
+        if let Some(b) = base {
+            r.baseline = Some(b.0.clone());
+            r.baseline_greedy_per_step = Some(b.1);
         }
         let metrics = seed_metrics(&r, optimum[spec.world_of[c]]);
         if let Err(e) = write_job(out, plan, j, &metrics) {
