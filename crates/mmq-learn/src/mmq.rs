@@ -15,22 +15,27 @@
 //! - The target's max over all models and actions of s' is the same for every model, so
 //!   it is cached per state: the max, how many entries attain it, and which one when it
 //!   is unique ([`Top`]).
-//! - The same is kept per column (s, a): the max over the N models of Q(s, a, ·). An
-//!   update changes one entry; unless that entry was or becomes its column's maximiser
-//!   (about one update in twenty on the paper's grid) one compare is all the bookkeeping.
-//!   Otherwise the column's cache follows the change, and is rebuilt by a scan of its N
-//!   entries only when its last maximiser decreases; the state's cache is then combined
-//!   from its |A| column caches.
+//! - The same is kept per column (s, a): the max over the N models of Q(s, a, ·). The
+//!   table is stored column by column, [s][a][λ̂], so a column is one contiguous run.
+//!   An update changes one entry; unless that entry was or becomes its column's
+//!   maximiser (about one update in twenty on the paper's grid) one compare is all the
+//!   bookkeeping. Otherwise the column's cache follows the change, and is rebuilt by a
+//!   scan of its N entries only when its last maximiser decreases; the state's cache is
+//!   then combined from its |A| column caches.
 //! - Acting reads the state's cache: no scan unless the maximum is tied, and then the
-//!   same draw and the same choice as [`crate::policy::argmax_random_tie`] ([`pick_tie`]).
+//!   same draw and the same choice as [`crate::policy::argmax_random_tie`] over the
+//!   block in the reference's [λ̂][a] order ([`pick_tie_in`]).
 //! - The last N steps are kept twice in a ring of 2N, so the N updates of one step walk
-//!   one slice without a modulo per model; the loop is compiled with |A| = 4 known for
-//!   the paper's moves. (1 − α) is computed once; eq. (7) is otherwise evaluated with
-//!   exactly the reference's operations in the reference's order.
+//!   one slice without a modulo per model, each step with its column's offset already
+//!   computed. (1 − α) is computed once; eq. (7) is otherwise evaluated with exactly the
+//!   reference's operations in the reference's order.
+//!
+//! Tables are exported ([`Learner::tables`], [`MultipleModelQ::raw`]) in the
+//! reference's [s][λ̂][a] order.
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{epsilon_greedy, pick_tie};
+use crate::policy::{epsilon_greedy, pick_tie_in};
 use crate::spec::Params;
 use crate::{Decision, Experience, Learner, Table};
 
@@ -41,8 +46,8 @@ struct Top {
     max: f64,
     /// How many entries equal `max` (≥ 1).
     count: u32,
-    /// Which entry is the maximiser when `count` is 1: λ̂ × |A| + a in a block, λ̂ in a
-    /// column.
+    /// Which entry is the maximiser when `count` is 1: λ̂ × |A| + a in a block (the
+    /// reference's order), λ̂ in a column.
     first: u32,
 }
 
@@ -66,11 +71,16 @@ impl Top {
     }
 }
 
-/// (s, a, s') of one past step.
+/// One past step (s, a, s') as the updates need it.
 #[derive(Clone, Copy, Debug, Default)]
 struct Past {
+    /// Offset of column (s, a) in the table: (s × |A| + a) × N.
+    at: usize,
+    /// Column index s × |A| + a.
+    c: u32,
+    /// s.
     s: u32,
-    a: u32,
+    /// s'.
     s2: u32,
 }
 
@@ -81,13 +91,13 @@ pub struct MultipleModelQ {
     /// N = λ̂max + 1 models.
     n: usize,
     num_actions: usize,
-    /// Q[(s × N + λ̂) × |A| + a]: one contiguous block of N × |A| values per state.
+    /// Q[(s × |A| + a) × N + λ̂]: column by column.
     q: Vec<f64>,
     /// Cache of column (s, a), max_λ̂ Q(s, a, λ̂), at [s × |A| + a].
     cols: Vec<Top>,
     /// Cache of the block of s, max_{λ̂, a} Q(s, a, λ̂), combined from its columns.
     top: Vec<Top>,
-    /// (s, a, s') of the last N steps at t mod N and again at t mod N + N.
+    /// The last N steps at t mod N and again at t mod N + N.
     history: Vec<Past>,
     /// How often each model was λ̂* of a greedy decision.
     chosen: Vec<u64>,
@@ -99,56 +109,99 @@ fn gt_max(x: f64, y: f64) -> f64 {
     if x > y { x } else { y }
 }
 
-/// Rebuilds the cache of column `a` of `block` (N rows of |A| = `a_n` values; `A` is
-/// |A| when known at compile time, else 0) by scanning its N entries.
+/// Rebuilds the cache of one column by scanning its N entries: the max over eight
+/// lanes (`maxpd`), then the maximisers, looked for eight at a time.
 #[cold]
 #[inline(never)]
-fn scan_column<const A: usize>(block: &[f64], a: usize, a_n: usize) -> Top {
-    if A == 0 {
-        column_top(block.chunks_exact(a_n).map(|row| row[a]))
-    } else {
-        column_top(block.as_chunks::<A>().0.iter().map(|row| row[a % A]))
+fn scan_column(col: &[f64]) -> Top {
+    let (chunks, tail) = col.as_chunks::<8>();
+    let mut acc = [f64::NEG_INFINITY; 8];
+    for c in chunks {
+        for k in 0..8 {
+            acc[k] = gt_max(c[k], acc[k]);
+        }
     }
+    for (k, &x) in tail.iter().enumerate() {
+        acc[k] = gt_max(x, acc[k]);
+    }
+    let max = acc.iter().fold(f64::NEG_INFINITY, |m, &x| gt_max(x, m));
+    let mut top = Top { max, count: 0, first: 0 };
+    for (j, c) in chunks.iter().enumerate() {
+        let mut hit = [false; 8];
+        for k in 0..8 {
+            hit[k] = c[k] == max;
+        }
+        if (hit[0] | hit[1]) | (hit[2] | hit[3]) | (hit[4] | hit[5]) | (hit[6] | hit[7]) {
+            tally(&mut top, 8 * j, c);
+        }
+    }
+    tally(&mut top, 8 * chunks.len(), tail);
+    top
 }
 
-/// Max, count and first maximiser of a column's values, in one pass.
-#[inline(always)]
-fn column_top(col: impl Iterator<Item = f64>) -> Top {
-    let mut top = Top { max: f64::NEG_INFINITY, count: 0, first: 0 };
-    for (l, x) in col.enumerate() {
-        if x > top.max {
-            top = Top { max: x, count: 1, first: l as u32 };
-        } else if x == top.max {
+/// Counts the entries of `xs` (entries `l0..` of a column) equal to `top.max`, noting
+/// the first.
+#[inline(never)]
+fn tally(top: &mut Top, l0: usize, xs: &[f64]) {
+    for (l, &x) in xs.iter().enumerate() {
+        if x == top.max {
+            if top.count == 0 {
+                top.first = (l0 + l) as u32;
+            }
             top.count += 1;
         }
     }
-    top
 }
 
 /// The cache of a block from the caches of its |A| columns.
 #[inline]
-fn combine(cols: &[Top], a_n: usize) -> Top {
+fn combine(cols: &[Top]) -> Top {
+    let a_n = cols.len() as u32;
     let max = cols.iter().fold(f64::NEG_INFINITY, |m, c| gt_max(c.max, m));
     let mut top = Top { max, count: 0, first: 0 };
     for (a, c) in cols.iter().enumerate() {
         if c.max == max {
             top.count += c.count;
-            top.first = c.first * a_n as u32 + a as u32;
+            top.first = c.first * a_n + a as u32;
         }
     }
     top
+}
+
+/// The caches after entry λ̂ = `l` of the column of `h` (whose values are `col`) went
+/// from `old` to `new`, and was or became the column's maximiser.
+#[inline(never)]
+fn follow(
+    h: &Past,
+    l: usize,
+    old: f64,
+    new: f64,
+    col: &[f64],
+    cols: &mut [Top],
+    top: &mut [Top],
+    a_n: usize,
+) {
+    let (c, s) = (h.c as usize, h.s as usize);
+    if !cols[c].follow(l, old, new) {
+        cols[c] = scan_column(col);
+    }
+    top[s] = combine(&cols[s * a_n..(s + 1) * a_n]);
 }
 
 impl MultipleModelQ {
     /// N = `max_delay` + 1 models over `num_states` × `num_actions`, every entry q0.
     pub fn new(p: Params, max_delay: usize, num_states: usize, num_actions: usize) -> Self {
         let n = max_delay + 1;
+        assert!(
+            u32::try_from(num_states * num_actions).is_ok() && u32::try_from(n * num_actions).is_ok(),
+            "MMQ tables of {num_states} states × {num_actions} actions × {n} models are too large"
+        );
         let all = |count: usize| Top { max: p.q0, count: count as u32, first: 0 };
         Self {
             p,
             n,
             num_actions,
-            q: vec![p.q0; num_states * n * num_actions],
+            q: vec![p.q0; num_states * num_actions * n],
             cols: vec![all(n); num_states * num_actions],
             top: vec![all(n * num_actions); num_states],
             history: vec![Past::default(); 2 * n],
@@ -156,20 +209,27 @@ impl MultipleModelQ {
         }
     }
 
-    #[inline]
-    fn block(&self, s: State) -> &[f64] {
-        let w = self.n * self.num_actions;
-        &self.q[s * w..(s + 1) * w]
-    }
-
     /// Q(s, a, λ̂).
     pub fn q(&self, s: State, a: Action, model: usize) -> f64 {
-        self.q[(s * self.n + model) * self.num_actions + a]
+        self.q[(s * self.num_actions + a) * self.n + model]
     }
 
-    /// The whole table, [s][λ̂][a].
-    pub fn raw(&self) -> &[f64] {
-        &self.q
+    /// Q(s, ·, λ̂) into `out`.
+    fn row(&self, s: State, model: usize, out: &mut [f64]) {
+        for (a, x) in out.iter_mut().enumerate() {
+            *x = self.q(s, a, model);
+        }
+    }
+
+    /// The block of s in the reference's order: Q(s, a, λ̂) at λ̂ × |A| + a.
+    fn block_values(&self, s: State) -> impl Iterator<Item = f64> + '_ {
+        (0..self.n).flat_map(move |l| (0..self.num_actions).map(move |a| self.q(s, a, l)))
+    }
+
+    /// The whole table in the reference's order, [s][λ̂][a] (a copy).
+    pub fn raw(&self) -> Vec<f64> {
+        let states = self.top.len();
+        (0..states).flat_map(|s| self.block_values(s)).collect()
     }
 
     /// Number of models N.
@@ -184,11 +244,11 @@ impl MultipleModelQ {
 
     /// The model whose greedy value max_a Q(s, a, λ̂) is highest in s (lowest λ̂ on ties).
     pub fn best_model(&self, s: State) -> usize {
-        let a_n = self.num_actions;
-        let block = self.block(s);
+        let mut row = vec![0.0; self.num_actions];
         let mut best = (f64::NEG_INFINITY, 0);
         for l in 0..self.n {
-            let v = crate::max_of(&block[l * a_n..(l + 1) * a_n]);
+            self.row(s, l, &mut row);
+            let v = crate::max_of(&row);
             if v > best.0 {
                 best = (v, l);
             }
@@ -205,7 +265,7 @@ impl MultipleModelQ {
         if top.count == 1 {
             top.first as usize
         } else {
-            pick_tie(self.block(s), top.max, top.count as usize, rng)
+            pick_tie_in(self.block_values(s), top.max, top.count as usize, rng)
         }
     }
 
@@ -220,69 +280,11 @@ impl MultipleModelQ {
         let n = self.n;
         let t = e.t as usize;
         let now = t % n + n;
-        let past = Past { s: e.state as u32, a: e.action as u32, s2: e.next_state as u32 };
+        let c = e.state * self.num_actions + e.action;
+        let past = Past { at: c * n, c: c as u32, s: e.state as u32, s2: e.next_state as u32 };
         self.history[now - n] = past;
         self.history[now] = past;
         (now, t.min(n - 1) + 1)
-    }
-
-    /// Algorithm 1's updates of one step, eq. (7), for λ̂ = 0..=min(t, N − 1) in
-    /// increasing λ̂. `A` is |A| when known at compile time, else 0.
-    #[inline]
-    fn update<const A: usize>(&mut self, e: &Experience<'_>) {
-        let (now, len) = self.remember(e);
-        let n = self.n;
-        let a_n = if A == 0 { self.num_actions } else { A };
-        let (alpha, gamma, r) = (self.p.alpha, self.p.gamma, e.reward);
-        let one_minus_alpha = 1.0 - alpha;
-        let Self { q, cols, top, history, .. } = self;
-        for (l, h) in history[now + 1 - len..=now].iter().rev().enumerate() {
-            let s = h.s as usize;
-            // `a < |A|` was checked when the step was recorded.
-            let a = if A == 0 { h.a as usize } else { h.a as usize % A };
-            let m = top[h.s2 as usize].max;
-            let i = (s * n + l) * a_n + a;
-            let old = q[i];
-            // eq. (7)
-            let new = one_minus_alpha * old + alpha * (r + gamma * m);
-            q[i] = new;
-            let c = s * a_n + a;
-            // Nothing else changes unless the entry was or becomes its column's maximiser.
-            if gt_max(new, old) >= cols[c].max {
-                if !cols[c].follow(l, old, new) {
-                    cols[c] = scan_column::<A>(&q[s * n * a_n..(s + 1) * n * a_n], a, a_n);
-                }
-                top[s] = combine(&cols[s * a_n..(s + 1) * a_n], a_n);
-            }
-        }
-    }
-
-    /// Checks the caches against full scans (tests).
-    #[cfg(test)]
-    fn check_caches(&self) {
-        let a_n = self.num_actions;
-        let scan = |xs: &[f64]| {
-            let max = crate::max_of(xs);
-            (max, xs.iter().filter(|&&x| x == max).count() as u32, xs.iter().position(|&x| x == max).unwrap())
-        };
-        for s in 0..self.top.len() {
-            let block = self.block(s);
-            let (max, count, first) = scan(block);
-            let t = self.top[s];
-            assert_eq!((t.max, t.count), (max, count), "state {s}");
-            if count == 1 {
-                assert_eq!(t.first as usize, first, "state {s}");
-            }
-            for a in 0..a_n {
-                let col: Vec<f64> = block.iter().skip(a).step_by(a_n).copied().collect();
-                let (max, count, first) = scan(&col);
-                let c = self.cols[s * a_n + a];
-                assert_eq!((c.max, c.count), (max, count), "state {s}, action {a}");
-                if count == 1 {
-                    assert_eq!(c.first as usize, first, "state {s}, action {a}");
-                }
-            }
-        }
     }
 }
 
@@ -305,12 +307,24 @@ impl Learner for MultipleModelQ {
         Decision { action, model: (!explored).then_some(model), explored }
     }
 
-    #[inline]
+    /// Algorithm 1's updates of one step, eq. (7), for λ̂ = 0..=min(t, N − 1) in
+    /// increasing λ̂.
     fn observe(&mut self, e: &Experience<'_>) {
-        // The paper's four moves get a loop with |A| known at compile time.
-        match self.num_actions {
-            4 => self.update::<4>(e),
-            _ => self.update::<0>(e),
+        let (now, len) = self.remember(e);
+        let (alpha, gamma, r) = (self.p.alpha, self.p.gamma, e.reward);
+        let one_minus_alpha = 1.0 - alpha;
+        let Self { n, num_actions, q, cols, top, history, .. } = self;
+        for (l, h) in history[now + 1 - len..=now].iter().rev().enumerate() {
+            let m = top[h.s2 as usize].max;
+            let i = h.at + l;
+            let old = q[i];
+            // eq. (7)
+            let new = one_minus_alpha * old + alpha * (r + gamma * m);
+            q[i] = new;
+            // Nothing else changes unless the entry was or becomes its column's maximiser.
+            if gt_max(new, old) >= cols[h.c as usize].max {
+                follow(h, l, old, new, &q[h.at..h.at + *n], &mut cols[..], &mut top[..], *num_actions);
+            }
         }
     }
 
@@ -319,14 +333,15 @@ impl Learner for MultipleModelQ {
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        let a_n = self.num_actions;
-        let l = self.best_model(s);
-        out.copy_from_slice(&self.block(s)[l * a_n..(l + 1) * a_n]);
+        self.row(s, self.best_model(s), out);
     }
 
     fn tables(&self) -> Vec<Table> {
-        let s = self.q.len() / (self.n * self.num_actions);
-        vec![Table { name: "q".into(), shape: vec![s, self.n, self.num_actions], data: self.q.clone() }]
+        vec![Table {
+            name: "q".into(),
+            shape: vec![self.top.len(), self.n, self.num_actions],
+            data: self.raw(),
+        }]
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {
@@ -347,6 +362,36 @@ impl Learner for MultipleModelQ {
 
     fn reset_history(&mut self) {
         self.history.iter_mut().for_each(|h| *h = Past::default());
+    }
+}
+
+impl MultipleModelQ {
+    /// Checks the caches against full scans (tests).
+    #[cfg(test)]
+    fn check_caches(&self) {
+        let a_n = self.num_actions;
+        let scan = |xs: &[f64]| {
+            let max = crate::max_of(xs);
+            (max, xs.iter().filter(|&&x| x == max).count() as u32, xs.iter().position(|&x| x == max).unwrap())
+        };
+        for s in 0..self.top.len() {
+            let block: Vec<f64> = self.block_values(s).collect();
+            let (max, count, first) = scan(&block);
+            let t = self.top[s];
+            assert_eq!((t.max, t.count), (max, count), "state {s}");
+            if count == 1 {
+                assert_eq!(t.first as usize, first, "state {s}");
+            }
+            for a in 0..a_n {
+                let col: Vec<f64> = block.iter().skip(a).step_by(a_n).copied().collect();
+                let (max, count, first) = scan(&col);
+                let c = self.cols[s * a_n + a];
+                assert_eq!((c.max, c.count), (max, count), "state {s}, action {a}");
+                if count == 1 {
+                    assert_eq!(c.first as usize, first, "state {s}, action {a}");
+                }
+            }
+        }
     }
 }
 

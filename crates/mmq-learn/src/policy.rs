@@ -31,8 +31,15 @@ pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
 /// keep the maximum and its count cached.
 #[inline]
 pub fn pick_tie(xs: &[f64], best: f64, count: usize, rng: &mut Rng) -> usize {
+    pick_tie_in(xs.iter().copied(), best, count, rng)
+}
+
+/// [`pick_tie`] over values given in order by an iterator (e.g. a table stored in
+/// another order than the one ties are counted in).
+#[inline]
+pub fn pick_tie_in(xs: impl IntoIterator<Item = f64>, best: f64, count: usize, rng: &mut Rng) -> usize {
     let mut k = rng.random_range(0..count);
-    for (i, &x) in xs.iter().enumerate() {
+    for (i, x) in xs.into_iter().enumerate() {
         if x == best {
             if k == 0 {
                 return i;
