@@ -68,7 +68,7 @@ fn run(
                 let axes: Vec<String> =
                     plan.axes.iter().map(|a| format!("{a}={}", plan.param(*cell_index, a))).collect();
                 pb.suspend(|| {
-                    eprintln!("[{finished}/{of}] cell {cell} ({}) seed {seed}: {wall_s:.1} s", axes.join(" "))
+                    eprintln!("[{finished}/{of}] cell {cell} ({}) seed {seed}: {wall_s:.2} s", axes.join(" "))
                 });
             }
         }
