@@ -129,7 +129,10 @@ pub fn run_facts(cfg: &RunConfig, world: &World) -> Vec<(String, String)> {
     match cfg.env {
         EnvKind::Grid => f.push(("grid_step_period_s".to_string(), mmq_grid::STEP_PERIOD_S.to_string())),
         EnvKind::Robot => match robot_env(world) {
-            Ok(env) => f.extend(env.features()),
+            Ok(env) => {
+                f.extend(env.features());
+                f.push(("robot.radius_m".into(), env.config().radius_m.to_string()));
+            }
             Err(e) => f.push(("robot_error".into(), e.to_string())),
         },
     }
