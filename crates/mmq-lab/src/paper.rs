@@ -43,7 +43,7 @@ impl PaperOptions {
             (false, EnvKind::Grid) => (20, 150_000, 2500),
             (false, EnvKind::Robot) => (5, 150_000, 2500),
             (true, EnvKind::Grid) => (6, 30_000, 1000),
-            (true, EnvKind::Robot) => (2, 600, 100),
+            (true, EnvKind::Robot) => (2, 3000, 100),
         };
         Self { seeds, steps, seed: 0, env, worlds: PathBuf::from("worlds"), window }
     }
