@@ -102,6 +102,8 @@ pub struct SeedResult {
     pub baseline_greedy_per_step: Option<f64>,
     /// Wall-clock seconds of this seed.
     pub wall_time_s: f64,
+    /// Wall-clock seconds of the learning run alone (no evaluation, no baseline).
+    pub learn_time_s: f64,
 }
 
 impl SeedResult {
@@ -181,6 +183,7 @@ pub fn run_seed_on<E: Env>(
     let seeds = SeedTree::new(seed);
     let config_toml = cfg.to_toml();
     let facts = run_facts(cfg, world);
+    let learn_clock = Instant::now();
     let (run, env) = learn(
         env,
         &mut *learner,
@@ -192,6 +195,7 @@ pub fn run_seed_on<E: Env>(
         Some((&config_toml, &facts)),
         cfg.learner.kind.name(),
     )?;
+    let learn_s = learn_clock.elapsed().as_secs_f64();
     let complete = run.steps_done == cfg.steps;
     let mut env = env;
     // Physics figures of the learning run (before evaluation resets the environment).
@@ -228,6 +232,7 @@ pub fn run_seed_on<E: Env>(
         baseline,
         baseline_greedy_per_step: baseline_greedy,
         wall_time_s: clock.elapsed().as_secs_f64(),
+        learn_time_s: learn_s,
     })
 }
 

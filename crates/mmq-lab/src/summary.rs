@@ -65,6 +65,8 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64) -> BTreeMap<String, f64> {
         m.insert(format!("env/{k}"), *v);
     }
     m.insert("time/wall_s".into(), r.wall_time_s);
+    m.insert("time/learn_s".into(), r.learn_time_s);
+    m.insert("time/steps_per_s".into(), r.run.steps_done as f64 / r.learn_time_s.max(1e-9));
     m
 }
 
