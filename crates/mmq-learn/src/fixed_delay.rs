@@ -8,9 +8,9 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::policy::{argmax_random_tie, epsilon_greedy, greedy_value};
 use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::{Decision, Experience, Learner, Table};
 
 /// Fixed-delay-estimate Q-learning.
 #[derive(Clone, Debug)]
@@ -65,7 +65,7 @@ impl Learner for FixedDelayQ {
         }
         let (s, a, s2) = self.history[(e.t as usize - self.lambda_hat) % n];
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let m = max_of(self.row(s2 as usize));
+        let m = greedy_value(self.row(s2 as usize));
         let q = &mut self.q[s as usize * self.num_actions + a as usize];
         // eq. (4), in the paper's order of terms
         *q = *q + alpha * (e.reward + gamma * m) - alpha * *q;

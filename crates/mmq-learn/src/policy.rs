@@ -10,6 +10,9 @@ use rand::RngExt;
 /// consume no randomness here.
 #[inline]
 pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
+    if let Ok(xs) = <&[f64; 4]>::try_from(xs) {
+        return argmax4(xs, rng);
+    }
     let mut best = f64::NEG_INFINITY;
     let mut count = 0usize;
     for &x in xs {
@@ -24,6 +27,30 @@ pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
         return xs.iter().position(|&x| x == best).unwrap_or(0);
     }
     pick_tie(xs, best, count, rng)
+}
+
+/// [`argmax_random_tie`] for four values (the paper's moves) without branches unless
+/// there is a tie: the same maximum (a `>` scan from −∞), count and choice.
+#[inline]
+fn argmax4(xs: &[f64; 4], rng: &mut Rng) -> usize {
+    let best = greedy_value(xs);
+    let count: usize = xs.iter().map(|&x| usize::from(x == best)).sum();
+    if count > 1 {
+        return pick_tie(xs, best, count, rng);
+    }
+    // The first index holding the maximum (0 if none, as `position(..).unwrap_or(0)`).
+    let mut first = 0;
+    for k in (0..4).rev() {
+        first = if xs[k] == best { k } else { first };
+    }
+    first
+}
+
+/// max(xs) by a `>` scan from −∞ (one `maxsd` per value; NaNs are passed over), the
+/// maximum [`argmax_random_tie`] finds.
+#[inline]
+pub fn greedy_value(xs: &[f64]) -> f64 {
+    xs.iter().fold(f64::NEG_INFINITY, |best, &x| if x > best { x } else { best })
 }
 
 /// One of the `count` (≥ 2) indices of `xs` whose value equals `best`, uniformly at
@@ -100,6 +127,35 @@ mod tests {
             assert!((*c as f64 - 40_000.0 / 3.0).abs() < 400.0, "{counts:?}");
         }
         assert_eq!(argmax_random_tie(&[0.0, -1.0, 2.0], &mut rng), 2);
+    }
+
+    /// The four-value path finds the same index and draws the same numbers as the
+    /// general scan, ties, zeros of both signs and NaN included.
+    #[test]
+    fn four_values_as_the_general_scan() {
+        fn general(xs: &[f64], rng: &mut Rng) -> usize {
+            // The scan of argmax_random_tie for lengths other than four.
+            let padded: Vec<f64> = xs.iter().copied().chain([f64::NEG_INFINITY]).collect();
+            let i = argmax_random_tie(&padded, rng);
+            assert!(i < 4);
+            i
+        }
+        let vals = [1.0, 2.0, -1.0, 0.0, -0.0, f64::NAN, f64::NEG_INFINITY, 2.0];
+        let (mut r1, mut r2) = (rng_from_seed(3), rng_from_seed(3));
+        for a in vals {
+            for b in vals {
+                for c in vals {
+                    for d in vals {
+                        let xs = [a, b, c, d];
+                        if xs.iter().all(|x| *x == f64::NEG_INFINITY || x.is_nan()) {
+                            continue; // the padding would tie with them
+                        }
+                        assert_eq!(argmax_random_tie(&xs, &mut r1), general(&xs, &mut r2), "{xs:?}");
+                    }
+                }
+            }
+        }
+        assert_eq!(r1.random::<u64>(), r2.random::<u64>());
     }
 
     #[test]

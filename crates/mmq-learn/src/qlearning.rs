@@ -7,9 +7,9 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::policy::{argmax_random_tie, epsilon_greedy, greedy_value};
 use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::{Decision, Experience, Learner, Table};
 
 /// Tabular Q-learning.
 #[derive(Clone, Debug)]
@@ -53,7 +53,7 @@ impl Learner for QLearning {
     #[inline]
     fn observe(&mut self, e: &Experience<'_>) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let m = max_of(self.row(e.next_state));
+        let m = greedy_value(self.row(e.next_state));
         let q = &mut self.q[e.state * self.num_actions + e.action];
         // eq. (2)
         *q += alpha * (e.reward + gamma * m - *q);
