@@ -3,6 +3,7 @@
 //! and a figure per numeric swept axis (drawn here, through mmq-plot).
 
 use std::fmt::Write as _;
+use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -95,8 +96,9 @@ fn run(
 }
 
 fn print_plan(plan: &Plan, shard: Option<Shard>) {
-    println!(
-        "sweep {}: {} cells × {} seeds = {} jobs",
+    // One write, errors ignored: `mmq sweep ... --dry-run | head` must not panic.
+    let mut t = format!(
+        "sweep {}: {} cells × {} seeds = {} jobs\n",
         plan.name,
         plan.cells.len(),
         plan.seeds.len(),
@@ -104,21 +106,22 @@ fn print_plan(plan: &Plan, shard: Option<Shard>) {
     );
     if let Some(s) = shard {
         let n = (0..plan.jobs()).filter(|&j| s.contains(j)).count();
-        println!("shard {s}: {n} jobs");
+        let _ = writeln!(t, "shard {s}: {n} jobs");
     }
     for (k, v) in plan.fixed() {
-        println!("  {k:<11} = {v}");
+        let _ = writeln!(t, "  {k:<11} = {v}");
     }
     for a in &plan.axes {
-        println!("  {a:<11} ∈ {{{}}}", plan.axis_values(a).join(", "));
+        let _ = writeln!(t, "  {a:<11} ∈ {{{}}}", plan.axis_values(a).join(", "));
     }
     let seeds: Vec<String> = plan.seeds.iter().map(u64::to_string).collect();
-    println!("  {:<11} ∈ {{{}}}", "seed", seeds.join(", "));
-    println!("cells:");
+    let _ = writeln!(t, "  {:<11} ∈ {{{}}}", "seed", seeds.join(", "));
+    t.push_str("cells:\n");
     for (i, c) in plan.cells.iter().enumerate() {
         let axes: Vec<String> = plan.axes.iter().map(|a| format!("{a}={}", plan.param(i, a))).collect();
-        println!("  {} {}", c.id, axes.join(" "));
+        let _ = writeln!(t, "  {} {}", c.id, axes.join(" "));
     }
+    let _ = std::io::stdout().lock().write_all(t.as_bytes());
 }
 
 fn merge_cmd(dirs: &[PathBuf], out: &Path) -> Result<(), Failure> {

@@ -163,6 +163,17 @@ mod shards {
 mod resume {
     use super::*;
 
+    struct KillOnDrop(Option<std::process::Child>);
+
+    impl Drop for KillOnDrop {
+        fn drop(&mut self) {
+            if let Some(c) = self.0.as_mut() {
+                let _ = c.kill();
+                let _ = c.wait();
+            }
+        }
+    }
+
     /// Delete one job's result: a rerun computes that job only and rebuilds the same CSV.
     #[test]
     fn rerun_computes_only_missing_jobs() {
@@ -216,12 +227,15 @@ mod resume {
             "learner = \"mmq\"\nmax_delay = 20\ndelay = \"poisson:3\"\nsteps = [2000, 2000000000]\neval_steps = 100\nseeds = 4\n",
         );
         let out_dir = d.path().join("out");
-        let mut child = Command::new(env!("CARGO_BIN_EXE_mmq"))
+        let child = Command::new(env!("CARGO_BIN_EXE_mmq"))
             .args(["--threads", "2", "sweep", &spec, "--out", &s(&out_dir), "-q"])
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
+        // Killed when the test fails: the long jobs must not outlive it.
+        let mut guard = KillOnDrop(Some(child));
+        let child = guard.0.as_mut().unwrap();
         let started = Instant::now();
         let count = || {
             std::fs::read_dir(out_dir.join("cells"))
@@ -250,7 +264,7 @@ mod resume {
             std::thread::sleep(Duration::from_millis(10));
         };
         let took = sent.elapsed();
-        let o = child.wait_with_output().unwrap();
+        let o = guard.0.take().unwrap().wait_with_output().unwrap();
         let (stdout, stderr) = text(&o);
         assert_eq!(status.code(), Some(130), "{stdout}\n{stderr}");
         assert!(took < Duration::from_secs(2), "took {took:?} to stop");
@@ -372,6 +386,23 @@ mod bad_specs {
         let o = mmq(&["sweep", "missing-spec.toml", "--out", &s(&d.path().join("o"))]);
         assert_eq!(o.status.code(), Some(3));
         assert!(text(&o).1.contains("missing-spec.toml: cannot read the sweep spec"));
+    }
+
+    /// Every example spec in worlds/sweeps is valid.
+    #[test]
+    fn shipped_specs_are_valid() {
+        let mut n = 0;
+        for e in std::fs::read_dir(root().join("worlds/sweeps")).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "toml") {
+                let o = mmq(&["sweep", &s(&p), "--out", "unused", "--dry-run"]);
+                let (out, err) = text(&o);
+                assert!(o.status.success(), "{}: {err}", p.display());
+                assert!(out.contains(" jobs"), "{out}");
+                n += 1;
+            }
+        }
+        assert!(n >= 2);
     }
 
     /// --dry-run prints the plan and writes nothing.

@@ -181,6 +181,9 @@ struct RawSpec {
     baseline: Field<bool>,
     seeds: Option<Spanned<SeedsField>>,
     seed: Option<Spanned<u64>>,
+    /// Learner parameters beyond the paper (`[beyond]` table: trace decay, ...), each
+    /// a value or a list, passed to the learner's `beyond` settings by name.
+    beyond: Option<BTreeMap<String, Spanned<OneOrMany<toml::Value>>>>,
 }
 
 /// Where in the spec text an error is, for messages `FILE:LINE:COLUMN: FIELD: ...`.
@@ -415,7 +418,7 @@ impl SweepSpec {
 
         // Texts of every field's values, in FIELDS order, checked for empty lists and
         // repeated values (which would make two cells with one id).
-        let texts: Vec<(&str, Vec<String>, bool, usize)> = vec![
+        let mut texts: Vec<(String, Vec<String>, bool, usize)> = vec![
             text_of(&world, |s| s.clone()),
             text_of(&env, |s| s.clone()),
             text_of(&learner, |s| s.clone()),
@@ -431,8 +434,31 @@ impl SweepSpec {
             text_of(&eval_steps, u64::to_string),
             text_of(&baseline, bool::to_string),
         ];
-        debug_assert!(texts.iter().map(|t| t.0).eq(FIELDS));
+        debug_assert!(texts.iter().map(|t| t.0.as_str()).eq(FIELDS));
+        // `[beyond]`: fields `beyond.KEY` after the others, in key order.
+        let beyond: Vec<(String, Values<toml::Value>)> = raw
+            .beyond
+            .unwrap_or_default()
+            .into_iter()
+            .map(|(k, v)| {
+                let offset = v.span().start;
+                let (listed, values) = match v.into_inner() {
+                    OneOrMany::One(x) => (false, vec![x]),
+                    m @ OneOrMany::Many(_) => (true, m.into_vec()),
+                };
+                (k, Values { name: "beyond", values, listed, offset })
+            })
+            .collect();
+        for (k, v) in &beyond {
+            texts.push((
+                format!("beyond.{k}"),
+                v.values.iter().map(value_text).collect(),
+                v.listed,
+                v.offset,
+            ));
+        }
         for (name, vals, _, offset) in &texts {
+            let name = name.as_str();
             if vals.is_empty() {
                 return Err(src.error(*offset, name, "the list is empty; give at least one value"));
             }
@@ -505,6 +531,17 @@ impl SweepSpec {
                         format!("{x} is not accepted; use at most 1000000 steps"),
                     ));
                 }
+            }
+        }
+
+        for (k, v) in &beyond {
+            for (i, x) in v.values.iter().enumerate() {
+                let item = if v.listed { format!("beyond.{k}[{i}]") } else { format!("beyond.{k}") };
+                let learner = with_beyond(&LearnerSpec::default(), &[(k.as_str(), x)])
+                    .map_err(|m| src.error(v.offset, &item, m))?;
+                learner
+                    .validate()
+                    .map_err(|e| src.error(v.offset, &item, plain_message(&LabError::Learner(e))))?;
             }
         }
 
@@ -583,11 +620,11 @@ impl SweepSpec {
         let mut configs = Vec::with_capacity(n_cells);
         let mut world_of = Vec::with_capacity(n_cells);
         let mut ids = HashMap::new();
-        let mut idx = vec![0usize; FIELDS.len()];
+        let mut idx = vec![0usize; texts.len()];
         for _ in 0..n_cells {
             let params: Vec<String> = idx.iter().zip(&texts).map(|(&i, t)| t.1[i].clone()).collect();
             let mut key = String::from("mmq-sweep-cell/1\n");
-            for (f, v) in FIELDS.iter().zip(&params) {
+            for ((f, ..), v) in texts.iter().zip(&params) {
                 let _ = writeln!(key, "{f}={v}");
             }
             let _ = writeln!(key, "world_bytes={}", world_digests[idx[0]]);
@@ -601,7 +638,7 @@ impl SweepSpec {
                     ),
                 });
             }
-            let cfg = RunConfig {
+            let mut cfg = RunConfig {
                 world: world_paths[idx[0]].clone(),
                 env: envs[idx[1]],
                 learner: LearnerSpec {
@@ -627,6 +664,19 @@ impl SweepSpec {
                 ledger: false,
                 ..RunConfig::default()
             };
+            if !beyond.is_empty() {
+                let pairs: Vec<(&str, &toml::Value)> = beyond
+                    .iter()
+                    .zip(&idx[FIELDS.len()..])
+                    .map(|((k, v), &i)| (k.as_str(), &v.values[i]))
+                    .collect();
+                cfg.learner = with_beyond(&cfg.learner, &pairs)
+                    .and_then(|l| l.validate().map(|_| l).map_err(|e| e.to_string()))
+                    .map_err(|m| LabError::Config {
+                        file: file_name.clone(),
+                        message: format!("cell {} ({}): {m}", cells.len(), params.join(", ")),
+                    })?;
+            }
             cells.push(PlanCell { id, params });
             configs.push(cfg);
             world_of.push(idx[0]);
@@ -645,8 +695,8 @@ impl SweepSpec {
         let plan = Plan {
             name,
             description: raw.description.unwrap_or_default(),
-            fields: FIELDS.iter().map(|s| s.to_string()).collect(),
-            axes: texts.iter().filter(|t| t.2).map(|t| t.0.to_string()).collect(),
+            fields: texts.iter().map(|t| t.0.clone()).collect(),
+            axes: texts.iter().filter(|t| t.2).map(|t| t.0.clone()).collect(),
             seeds,
             cells,
         };
@@ -664,8 +714,39 @@ impl SweepSpec {
     }
 }
 
-fn text_of<T>(v: &Values<T>, f: impl Fn(&T) -> String) -> (&'static str, Vec<String>, bool, usize) {
-    (v.name, v.values.iter().map(f).collect(), v.listed, v.offset)
+fn text_of<T>(v: &Values<T>, f: impl Fn(&T) -> String) -> (String, Vec<String>, bool, usize) {
+    (v.name.to_string(), v.values.iter().map(f).collect(), v.listed, v.offset)
+}
+
+/// A TOML value as a parameter text: strings bare, numbers in shortest form.
+fn value_text(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Integer(i) => i.to_string(),
+        toml::Value::Float(f) => f.to_string(),
+        toml::Value::Boolean(b) => b.to_string(),
+        other => other.to_string(),
+    }
+}
+
+/// `base` with `beyond.KEY = value` for every pair, through the learner's serde form,
+/// so that every learner parameter this build knows can be set by name.
+fn with_beyond(base: &LearnerSpec, pairs: &[(&str, &toml::Value)]) -> Result<LearnerSpec, String> {
+    let mut v = toml::Value::try_from(base).map_err(|e| e.to_string())?;
+    let table = v.as_table_mut().ok_or("the learner is not a table")?;
+    let beyond = table.entry("beyond").or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    let beyond = beyond.as_table_mut().ok_or("`beyond` is not a table")?;
+    for (k, x) in pairs {
+        beyond.insert((*k).to_string(), (*x).clone());
+    }
+    v.try_into::<LearnerSpec>().map_err(|e| {
+        let m = e.message().trim().replace('\n', "; ");
+        if m.contains("unknown field `beyond`") {
+            "this build's learners take no parameters beyond the paper's".to_string()
+        } else {
+            m
+        }
+    })
 }
 
 /// A lab error's message without the command-line flag it names (`--alpha = 2 ...` →
@@ -802,7 +883,22 @@ fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) -> Result<(),
         metrics: metrics.iter().map(|(k, v)| (k.clone(), encode(*v))).collect(),
     };
     let text = serde_json::to_string_pretty(&s).unwrap_or_default() + "\n";
-    write_atomic(&plan.job_path(dir, j), text.as_bytes())
+    write_renamed(&plan.job_path(dir, j), text.as_bytes())
+}
+
+/// Writes `bytes` to a temporary file and renames it to `path`: readers see the old file
+/// or the new one, never a part. Unlike [`write_atomic`] it does not wait for the disk
+/// (fsync): a job file lost or emptied by a crash of the machine fails to parse, and
+/// the job is simply run again, while thousands of short jobs are not slowed down.
+fn write_renamed(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
+    let io = |source| LabError::Io { path: path.to_path_buf(), source };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
 }
 
 /// Finished results of every job of `plan` found in `dir` (None where missing).
@@ -1264,7 +1360,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
                     let src = plan.job_path(d, j);
                     let bytes =
                         std::fs::read(&src).map_err(|source| LabError::Io { path: src.clone(), source })?;
-                    write_atomic(&plan.job_path(out, j), &bytes)?;
+                    write_renamed(&plan.job_path(out, j), &bytes)?;
                     have[j] = Some(r);
                     copied += 1;
                 }
