@@ -109,24 +109,37 @@ impl<E: Env> DelayedReward<E> {
 
     /// Takes one action: the environment emits, the channel schedules, and whatever is
     /// due now is delivered.
+    ///
+    /// Small enough to inline into a learning loop: drawing a delay and the ledger's
+    /// bookkeeping are out of line (most steps emit nothing).
+    #[inline]
     pub fn step(&mut self, action: Action) -> Result<DelayedStep, EnvError> {
         let step = self.env.step(action)?;
         let t = self.t;
-        let mut delay = None;
-        if step.reward != 0.0 {
-            let d = self.sampler.sample(&mut self.rng);
-            delay = Some(d);
-            self.schedule(t, d, step.reward);
-        }
+        let delay = if step.reward != 0.0 { Some(self.emit(t, step.reward)) } else { None };
         let slot = (t as usize) & (self.ring.len() - 1);
         let delivered = std::mem::take(&mut self.ring[slot]);
         if self.ledger.is_some() {
-            self.delivered_ids.clear();
-            std::mem::swap(&mut self.delivered_ids, &mut self.ring_ids[slot]);
+            self.deliver_ids(slot);
         }
         self.delivered_total += delivered;
         self.t += 1;
         Ok(DelayedStep { t, step, delay, delivered })
+    }
+
+    /// Draws the delay of a non-zero reward emitted at `t` and schedules it.
+    #[inline(never)]
+    fn emit(&mut self, t: u64, value: f64) -> u32 {
+        let d = self.sampler.sample(&mut self.rng);
+        self.schedule(t, d, value);
+        d
+    }
+
+    /// The ledger's ids of the emissions due at `slot` become the delivered ones.
+    #[inline(never)]
+    fn deliver_ids(&mut self, slot: usize) {
+        self.delivered_ids.clear();
+        std::mem::swap(&mut self.delivered_ids, &mut self.ring_ids[slot]);
     }
 
     fn schedule(&mut self, t: u64, d: u32, value: f64) {

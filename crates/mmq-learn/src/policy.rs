@@ -8,7 +8,7 @@ use rand::RngExt;
 ///
 /// Draws from `rng` only when there is more than one maximum, so runs without ties
 /// consume no randomness here.
-#[inline]
+#[inline(always)]
 pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
     if let Ok(xs) = <&[f64; 4]>::try_from(xs) {
         return argmax4(xs, rng);
@@ -31,7 +31,7 @@ pub fn argmax_random_tie(xs: &[f64], rng: &mut Rng) -> usize {
 
 /// [`argmax_random_tie`] for four values (the paper's moves) without branches unless
 /// there is a tie: the same maximum (a `>` scan from −∞), count and choice.
-#[inline]
+#[inline(always)]
 fn argmax4(xs: &[f64; 4], rng: &mut Rng) -> usize {
     let best = greedy_value(xs);
     let count: usize = xs.iter().map(|&x| usize::from(x == best)).sum();
