@@ -48,9 +48,13 @@ fn argmax4(xs: &[f64; 4], rng: &mut Rng) -> usize {
 
 /// max(xs) by a `>` scan from −∞ (one `maxsd` per value; NaNs are passed over), the
 /// maximum [`argmax_random_tie`] finds.
-#[inline]
+#[inline(always)]
 pub fn greedy_value(xs: &[f64]) -> f64 {
-    xs.iter().fold(f64::NEG_INFINITY, |best, &x| if x > best { x } else { best })
+    let scan = |xs: &[f64]| xs.iter().fold(f64::NEG_INFINITY, |best, &x| if x > best { x } else { best });
+    match <&[f64; 4]>::try_from(xs) {
+        Ok(xs) => scan(xs), // unrolled
+        Err(_) => scan(xs),
+    }
 }
 
 /// One of the `count` (≥ 2) indices of `xs` whose value equals `best`, uniformly at
