@@ -1,13 +1,22 @@
 //! Steps per second of each learner on the paper's 9×9 world with the Poisson(13)
 //! channel (environment, channel and learner together, as in a run), and of the
-//! channel alone.
+//! channel alone. Figures and history: docs/performance.md.
 //!
 //! `cargo bench -p mmq-learn --bench learners`
+//!
+//! - `learner-steps-9x9-poisson13/{q,fixed,mmq}`: the learner as the runner holds it,
+//!   a `Box<dyn Learner>` built from the default [`LearnerSpec`] (MMQ: N = 51 models).
+//! - `learner-steps-9x9-poisson13/channel-only`: environment and channel, no learner.
+//! - `learner-steps-static-9x9-poisson13/{q,mmq}`: the same loop with the concrete
+//!   learner type (no virtual calls), to show what dynamic dispatch costs.
+//! - `mmq-reference-9x9/mmq-reference`: the plain transcription of Algorithm 1.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
 use mmq_grid::GridEnv;
-use mmq_learn::{Experience, LearnerKind, LearnerSpec};
+use mmq_learn::mmq::MultipleModelQ;
+use mmq_learn::qlearning::QLearning;
+use mmq_learn::{Experience, Learner, LearnerKind, LearnerSpec};
 
 const STEPS: u64 = 100_000;
 
@@ -15,12 +24,10 @@ fn world() -> World {
     World::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml")).unwrap()
 }
 
-fn run(kind: LearnerKind, steps: u64) -> f64 {
-    let w = world();
-    let spec = LearnerSpec { kind, ..LearnerSpec::default() };
-    let mut learner = spec.build(w.num_cells(), 4, 1 << 30).unwrap();
+/// `steps` steps of learning from scratch; returns the reward earned.
+fn learn<L: Learner + ?Sized>(learner: &mut L, w: &World, steps: u64) -> f64 {
     let seeds = SeedTree::new(1);
-    let mut ch = DelayedReward::new(GridEnv::new(&w), &DelayDist::Poisson(13.0), false);
+    let mut ch = DelayedReward::new(GridEnv::new(w), &DelayDist::Poisson(13.0), false);
     let mut s = ch.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay), Start::World).unwrap();
     let mut rng: Rng = seeds.rng(Stream::Explore);
     let mut total = 0.0;
@@ -39,6 +46,14 @@ fn run(kind: LearnerKind, steps: u64) -> f64 {
         s = st.step.state;
     }
     total
+}
+
+/// A fresh learner of `kind` as the runner builds it, then `steps` steps.
+fn run(kind: LearnerKind, steps: u64) -> f64 {
+    let w = world();
+    let spec = LearnerSpec { kind, ..LearnerSpec::default() };
+    let mut learner = spec.build(w.num_cells(), 4, 1 << 30).unwrap();
+    learn(&mut *learner, &w, steps)
 }
 
 fn bench(c: &mut Criterion) {
@@ -61,6 +76,20 @@ fn bench(c: &mut Criterion) {
         })
     });
     g.finish();
+
+    let mut g = c.benchmark_group("learner-steps-static-9x9-poisson13");
+    g.throughput(Throughput::Elements(STEPS));
+    g.sample_size(10);
+    let p = LearnerSpec::default().params;
+    let w = world();
+    g.bench_function("q", |b| b.iter(|| learn(&mut QLearning::new(p, w.num_cells(), 4), &w, STEPS)));
+    g.bench_function("mmq", |b| {
+        b.iter(|| {
+            learn(&mut MultipleModelQ::new(p, LearnerSpec::default().max_delay, w.num_cells(), 4), &w, STEPS)
+        })
+    });
+    g.finish();
+
     let mut g = c.benchmark_group("mmq-reference-9x9");
     g.throughput(Throughput::Elements(10_000));
     g.sample_size(10);
