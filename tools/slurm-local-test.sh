@@ -6,10 +6,12 @@
 #   3. runs a small sweep unsharded as the reference,
 #   4. submits the same sweep with tools/slurm-sweep.sbatch (a 3-task job array and a
 #      dependent merge), waits for both, and
-#   5. checks that the merged results.csv equals the reference byte for byte.
+#   5. checks that the merged results.csv equals the reference byte for byte, and
+#   6. checks that a task Slurm signals before its time limit stops cleanly, keeping its
+#      finished jobs for a resubmission.
 # Every daemon it started is stopped at the end (by its process id). A manual tool, not
 # run by CI: `sudo tools/slurm-local-test.sh` (env: WORK=dir to keep the files, SPEC,
-# SHARDS, MMQ).
+# SHARDS, MMQ; SKIP_TIMELIMIT=1 skips the last check, which takes two minutes).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -157,5 +159,41 @@ if cmp "$work/unsharded/results.csv" "$work/cluster/merged/results.csv"; then
 else
     echo "DIFFERENT: see $work" >&2
     exit 1
+fi
+
+if [ "${SKIP_TIMELIMIT:-0}" != 1 ]; then
+    say "time limit: Slurm's SIGINT before the limit stops mmq cleanly (about 2 minutes; SKIP_TIMELIMIT=1 skips)"
+    # Two jobs of a few milliseconds and two that would take hours, in a 3-minute job
+    # that Slurm signals (B:INT) 60 s before its limit.
+    cat >"$work/long.toml" <<EOF
+name = "time-limit"
+world = "$root/worlds/paper-9x9.toml"
+learner = "mmq"
+max_delay = 20
+steps = [20000, 3000000000]
+baseline = false
+seeds = 2
+EOF
+    SBATCH_ARGS="--cpus-per-task=2 --time=3 --signal=B:INT@60" \
+        tools/slurm-sweep.sbatch "$work/long.toml" "$work/long" 1 | tee "$work/submit-long.txt"
+    long_id=$(sed -n 's/^submitted shards: job array \([0-9]*\).*/\1/p' "$work/submit-long.txt")
+    long_merge=$(sed -n 's/.*merge: job \([0-9]*\).*/\1/p' "$work/submit-long.txt")
+    for _ in $(seq 400); do
+        [ "$(squeue -h -j "$long_id" 2>/dev/null | wc -l)" -eq 0 ] && break
+        sleep 1
+    done
+    # The shard was interrupted (exit 130), so its afterok merge can never run.
+    scancel "$long_merge" 2>/dev/null || true
+    scontrol -o show job "$long_id" |
+        sed -n 's/.*JobState=\([A-Z_]*\).*ExitCode=\([0-9:]*\).*RunTime=\([0-9:]*\) TimeLimit=\([0-9:]*\).*/  shard: \1 (exit \2) after \3 of its \4 limit/p'
+    cat "$work"/long/logs/shard-*.out
+    if grep -q '"complete": false' "$work/long/shards/1/sweep.json" &&
+        [ "$(find "$work/long/shards/1/cells" -name 'seed-*.json' | wc -l)" -eq 2 ] &&
+        grep -q '^interrupted: 2 job' "$work"/long/logs/shard-*.out; then
+        echo "STOPPED CLEANLY: the 2 short jobs kept, the 2 long ones left to resume ($work/long/shards/1)"
+    else
+        echo "the time-limit signal did not stop mmq as expected; see $work/long" >&2
+        exit 1
+    fi
 fi
 echo "files kept in $work"
