@@ -80,8 +80,8 @@ struct Past {
     c: u32,
     /// s.
     s: u32,
-    /// s'.
-    s2: u32,
+    /// Where max Q(s', ·, ·) is mirrored: S × |A| + s'.
+    m2: u32,
 }
 
 /// Multiple-Model Q-learning with exact cached maxima.
@@ -97,9 +97,9 @@ pub struct MultipleModelQ {
     cols: Vec<Top>,
     /// Cache of the block of s, max_{λ̂, a} Q(s, a, λ̂), combined from its columns.
     top: Vec<Top>,
-    /// `cols[c].max` and `top[s].max` again, densely, for the update loop.
-    col_max: Vec<f64>,
-    state_max: Vec<f64>,
+    /// `cols[c].max` at [c] and `top[s].max` at [S × |A| + s] again, densely, for the
+    /// update loop.
+    maxes: Vec<f64>,
     /// The last N steps at t mod N and again at t mod N + N.
     history: Vec<Past>,
     /// The step expected next and its position t mod N + N in `history`.
@@ -211,7 +211,7 @@ impl MultipleModelQ {
     pub fn new(p: Params, max_delay: usize, num_states: usize, num_actions: usize) -> Self {
         let n = max_delay + 1;
         assert!(
-            u32::try_from(num_states * num_actions).is_ok() && u32::try_from(n * num_actions).is_ok(),
+            u32::try_from(num_states * (num_actions + 1)).is_ok() && u32::try_from(n * num_actions).is_ok(),
             "MMQ tables of {num_states} states × {num_actions} actions × {n} models are too large"
         );
         let all = |count: usize| Top { max: p.q0, count: count as u32, first: 0 };
@@ -222,8 +222,7 @@ impl MultipleModelQ {
             q: vec![p.q0; num_states * num_actions * n],
             cols: vec![all(n); num_states * num_actions],
             top: vec![all(n * num_actions); num_states],
-            col_max: vec![p.q0; num_states * num_actions],
-            state_max: vec![p.q0; num_states],
+            maxes: vec![p.q0; num_states * num_actions + num_states],
             history: vec![Past::default(); 2 * n],
             next: (0, n),
             chosen: vec![0; n],
@@ -304,7 +303,8 @@ impl MultipleModelQ {
         let now = if e.t == self.next.0 { self.next.1 } else { t % n + n };
         self.next = (e.t.wrapping_add(1), if now + 1 == 2 * n { n } else { now + 1 });
         let c = e.state * self.num_actions + e.action;
-        let past = Past { at: c * n, c: c as u32, s: e.state as u32, s2: e.next_state as u32 };
+        let m2 = self.cols.len() + e.next_state;
+        let past = Past { at: c * n, c: c as u32, s: e.state as u32, m2: m2 as u32 };
         self.history[now - n] = past;
         self.history[now] = past;
         (now, t.min(n - 1) + 1)
@@ -337,19 +337,19 @@ impl Learner for MultipleModelQ {
         let (now, len) = self.remember(e);
         let (alpha, gamma, r) = (self.p.alpha, self.p.gamma, e.reward);
         let one_minus_alpha = 1.0 - alpha;
-        let Self { n, num_actions, q, cols, top, col_max, state_max, history, .. } = self;
+        let Self { n, num_actions, q, cols, top, maxes, history, .. } = self;
         for (l, h) in history[now + 1 - len..=now].iter().rev().enumerate() {
-            let m = state_max[h.s2 as usize];
+            let m = maxes[h.m2 as usize];
             let i = h.at + l;
             let old = q[i];
             // eq. (7)
             let new = one_minus_alpha * old + alpha * (r + gamma * m);
             q[i] = new;
             // Nothing else changes unless the entry was or becomes its column's maximiser.
-            if gt_max(new, old) >= col_max[h.c as usize] {
+            if gt_max(new, old) >= maxes[h.c as usize] {
                 follow(h, l, old, new, &q[h.at..h.at + *n], cols, top, *num_actions);
-                col_max[h.c as usize] = cols[h.c as usize].max;
-                state_max[h.s as usize] = top[h.s as usize].max;
+                maxes[h.c as usize] = cols[h.c as usize].max;
+                maxes[cols.len() + h.s as usize] = top[h.s as usize].max;
             }
         }
     }
@@ -406,7 +406,7 @@ impl MultipleModelQ {
             let (max, count, first) = scan(&block);
             let t = self.top[s];
             assert_eq!((t.max, t.count), (max, count), "state {s}");
-            assert_eq!(self.state_max[s], max, "state {s}");
+            assert_eq!(self.maxes[self.cols.len() + s], max, "state {s}");
             if count == 1 {
                 assert_eq!(t.first as usize, first, "state {s}");
             }
@@ -415,7 +415,7 @@ impl MultipleModelQ {
                 let (max, count, first) = scan(&col);
                 let c = self.cols[s * a_n + a];
                 assert_eq!((c.max, c.count), (max, count), "state {s}, action {a}");
-                assert_eq!(self.col_max[s * a_n + a], max, "state {s}, action {a}");
+                assert_eq!(self.maxes[s * a_n + a], max, "state {s}, action {a}");
                 if count == 1 {
                     assert_eq!(c.first as usize, first, "state {s}, action {a}");
                 }
