@@ -279,6 +279,8 @@ fn learn<E: Env>(
     }
     let table_every = (cfg.steps / 10).max(1);
     let (mut w_earned, mut w_received) = (0.0, 0.0);
+    // Steps left in the current curve window (a countdown, not a division per step).
+    let mut window_left = cfg.window;
     let mut pending_progress = 0u64;
     for t in 0..cfg.steps {
         if t % CHECK_EVERY == 0 && t > 0 {
@@ -337,7 +339,9 @@ fn learn<E: Env>(
                 o.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);
             }
         }
-        if (t + 1) % cfg.window == 0 {
+        window_left -= 1;
+        if window_left == 0 {
+            window_left = cfg.window;
             traj.curve.push(CurveRow {
                 step: t + 1,
                 earned: w_earned,
