@@ -10,8 +10,13 @@
 //! - `learner-steps-static-9x9-poisson13/{q,mmq}`: the same loop with the concrete
 //!   learner type (no virtual calls), to show what dynamic dispatch costs.
 //! - `mmq-reference-9x9/mmq-reference`: the plain transcription of Algorithm 1.
+//!
+//! With `LEARNERS_STEPS="NAME STEPS"` set (e.g. `"mmq 60000"`) the binary instead runs
+//! that learner once for that many steps, as `learner-steps-9x9-poisson13/NAME` does, and
+//! exits: for instruction counts under `valgrind --tool=callgrind` (see
+//! docs/performance.md).
 
-use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use criterion::{Criterion, Throughput, criterion_group};
 use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
 use mmq_grid::GridEnv;
 use mmq_learn::mmq::MultipleModelQ;
@@ -98,4 +103,15 @@ fn bench(c: &mut Criterion) {
 }
 
 criterion_group!(benches, bench);
-criterion_main!(benches);
+
+fn main() {
+    if let Ok(v) = std::env::var("LEARNERS_STEPS") {
+        let mut it = v.split_whitespace();
+        let kind = LearnerKind::parse(it.next().unwrap_or("mmq")).unwrap();
+        let steps: u64 = it.next().and_then(|x| x.parse().ok()).unwrap_or(STEPS);
+        println!("{} {steps} steps: earned {}", kind.name(), run(kind, steps));
+        return;
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
