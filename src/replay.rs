@@ -7,7 +7,7 @@ use crate::cli::ReplayArgs;
 
 /// Runs `mmq replay`.
 pub fn replay(a: ReplayArgs) -> Result<(), Failure> {
-    let log = mmq_log::read_log(&a.file).map_err(|e| crate::input_error(e))?;
+    let log = mmq_log::read_log(&a.file).map_err(crate::input_error)?;
     if let Some(stop) = &log.stop {
         eprintln!(
             "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",

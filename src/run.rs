@@ -35,7 +35,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         baseline: !a.no_baseline,
         save_tables: !a.no_tables,
         ledger: false,
-        record: a.record.then(|| mmq_lab::config::RecordSettings {
+        record: a.record.then_some(mmq_lab::config::RecordSettings {
             pose_rate_hz: a.record_rate,
             first: a.record_first,
             last: a.record_last,
