@@ -114,11 +114,29 @@ fn gt_max(x: f64, y: f64) -> f64 {
     if x > y { x } else { y }
 }
 
-/// Rebuilds the cache of one column by scanning its N entries: the max over eight
-/// lanes (`maxpd`), then the maximisers, looked for eight at a time.
+/// Rebuilds the cache of one column by scanning its N entries, without branches on the
+/// values (where the maximum sits is unpredictable): the max over eight lanes
+/// (`maxpd`), then one exact sum over the maximisers of 2^26 + their index, which holds
+/// both their number and, when there is one, where it is.
 #[cold]
 #[inline(never)]
 fn scan_column(col: &[f64]) -> Top {
+    const TAG: f64 = (1u64 << 26) as f64;
+    if col.len() > 8192 {
+        // Sums of indices could reach 2^26: plain scan.
+        return col.iter().enumerate().fold(
+            Top { max: f64::NEG_INFINITY, count: 0, first: 0 },
+            |t, (l, &x)| {
+                if x > t.max {
+                    Top { max: x, count: 1, first: l as u32 }
+                } else if x == t.max {
+                    Top { count: t.count + 1, ..t }
+                } else {
+                    t
+                }
+            },
+        );
+    }
     let (chunks, tail) = col.as_chunks::<8>();
     let mut acc = [f64::NEG_INFINITY; 8];
     for c in chunks {
@@ -132,32 +150,21 @@ fn scan_column(col: &[f64]) -> Top {
     let acc =
         [gt_max(acc[0], acc[4]), gt_max(acc[1], acc[5]), gt_max(acc[2], acc[6]), gt_max(acc[3], acc[7])];
     let max = gt_max(gt_max(acc[0], acc[2]), gt_max(acc[1], acc[3]));
-    let mut top = Top { max, count: 0, first: 0 };
-    for (j, c) in chunks.iter().enumerate() {
-        let mut hit = [false; 8];
+    // Integers below 2^53: every sum is exact, in any order.
+    let mut sum = [0.0f64; 8];
+    let mut tag = [0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0].map(|l| TAG + l);
+    for c in chunks {
         for k in 0..8 {
-            hit[k] = c[k] == max;
-        }
-        if (hit[0] | hit[1]) | (hit[2] | hit[3]) | (hit[4] | hit[5]) | (hit[6] | hit[7]) {
-            tally(&mut top, 8 * j, c);
+            sum[k] += if c[k] == max { tag[k] } else { 0.0 };
+            tag[k] += 8.0;
         }
     }
-    tally(&mut top, 8 * chunks.len(), tail);
-    top
-}
-
-/// Counts the entries of `xs` (entries `l0..` of a column) equal to `top.max`, noting
-/// the first.
-#[inline(never)]
-fn tally(top: &mut Top, l0: usize, xs: &[f64]) {
-    for (l, &x) in xs.iter().enumerate() {
-        if x == top.max {
-            if top.count == 0 {
-                top.first = (l0 + l) as u32;
-            }
-            top.count += 1;
-        }
+    for (k, &x) in tail.iter().enumerate() {
+        sum[k] += if x == max { tag[k] } else { 0.0 };
     }
+    let sum = sum.iter().sum::<f64>() as u64;
+    let count = (sum >> 26) as u32;
+    Top { max, count, first: if count == 1 { (sum & ((1 << 26) - 1)) as u32 } else { 0 } }
 }
 
 /// The cache of a block from the caches of its |A| columns.
@@ -540,6 +547,35 @@ mod tests {
         ];
         for (p, max_delay, states, actions, seed) in cases {
             compare(p, max_delay, states, actions, 20_000, seed);
+        }
+    }
+
+    /// The column rescan against a plain scan: lengths around the eight lanes and past
+    /// the limit of its index sums, one maximiser anywhere, ties, all equal.
+    #[test]
+    fn column_scan_counts_and_finds() {
+        let plain = |col: &[f64]| {
+            let max = crate::max_of(col);
+            let count = col.iter().filter(|&&x| x == max).count() as u32;
+            let first = if count == 1 { col.iter().position(|&x| x == max).unwrap() as u32 } else { 0 };
+            Top { max, count, first }
+        };
+        let mut rng = rng_from_seed(5);
+        for n in (1..40).chain([51, 64, 100, 8192, 8193, 10_000]) {
+            for _ in 0..20 {
+                let levels = rng.random_range(1..6);
+                let col: Vec<f64> = (0..n).map(|_| rng.random_range(0..levels) as f64 - 2.0).collect();
+                let got = scan_column(&col);
+                let want = plain(&col);
+                assert_eq!((got.max, got.count), (want.max, want.count), "n = {n}");
+                if want.count == 1 {
+                    assert_eq!(got.first, want.first, "n = {n}");
+                }
+            }
+            let mut col = vec![0.5; n];
+            let j = rng.random_range(0..n);
+            col[j] = 1.5;
+            assert_eq!(scan_column(&col), Top { max: 1.5, count: 1, first: j as u32 }, "n = {n}");
         }
     }
 
