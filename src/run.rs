@@ -25,6 +25,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
             params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
             lambda_hat: a.lambda_hat,
             max_delay: a.max_delay,
+            beyond: Default::default(),
         },
         delay: a.delay.clone(),
         steps: a.steps,

@@ -56,7 +56,7 @@ impl PaperOptions {
         RunConfig {
             world: self.worlds.join(format!("{world}.toml")),
             env,
-            learner: LearnerSpec { kind, params, lambda_hat: 0, max_delay: 50 },
+            learner: LearnerSpec { kind, params, lambda_hat: 0, max_delay: 50, beyond: Default::default() },
             delay: delay.into(),
             steps: self.steps,
             seed: self.seed,

@@ -6,15 +6,27 @@
 //! | `q` | [`qlearning`] | eq. (2) |
 //! | `fixed` | [`fixed_delay`] | eq. (4) |
 //! | `mmq` | [`mmq`] (fast) / [`mmq_reference`] (plain transcription) | Algorithm 1, eqs. (5)–(7) |
+//! | `q-lambda` | [`q_lambda`] | Watkins's Q(λ) (beyond the paper, issue 8) |
+//! | `sarsa-lambda` | [`sarsa_lambda`] | SARSA(λ) (beyond the paper) |
+//! | `oracle` | [`oracle`] | true credit from the channel's ledger: an upper bound, no real agent |
+//! | `deconv-q` | [`deconv_q`] + [`deconv`] | Q-learning on deconvolved rewards, delay pmf estimated |
+//! | `deconv-model` | [`deconv_model`] + [`deconv`] | counted model + deconvolved rewards + value iteration |
 //!
 //! Architecture invariant: learners know no environment, no physics, no log format;
 //! exploration randomness comes in from the caller's stream.
 
+pub mod beyond;
+pub mod deconv;
+pub mod deconv_model;
+pub mod deconv_q;
 pub mod fixed_delay;
 pub mod mmq;
 pub mod mmq_reference;
+pub mod oracle;
 pub mod policy;
+pub mod q_lambda;
 pub mod qlearning;
+pub mod sarsa_lambda;
 pub mod spec;
 
 pub use spec::{LearnError, LearnerKind, LearnerSpec, build, catalogue};

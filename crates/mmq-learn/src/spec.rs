@@ -4,10 +4,16 @@
 use serde::{Deserialize, Serialize};
 
 use crate::Learner;
+use crate::beyond::BeyondParams;
+use crate::deconv_model::DeconvModel;
+use crate::deconv_q::DeconvQ;
 use crate::fixed_delay::FixedDelayQ;
 use crate::mmq::MultipleModelQ;
 use crate::mmq_reference::MmqReference;
+use crate::oracle::Oracle;
+use crate::q_lambda::QLambda;
 use crate::qlearning::QLearning;
+use crate::sarsa_lambda::SarsaLambda;
 
 /// Hyper-parameters shared by the tabular learners.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -42,6 +48,16 @@ pub enum LearnerKind {
     Mmq,
     /// Algorithm 1 as a plain loop (the specification; slow).
     MmqReference,
+    /// Watkins's Q(λ) with replacing traces.
+    QLambda,
+    /// SARSA(λ) with replacing traces.
+    SarsaLambda,
+    /// Q-learning told the true credit (an upper bound, not a real agent).
+    Oracle,
+    /// Q-learning on deconvolved rewards with an estimated delay pmf.
+    DeconvQ,
+    /// Counted transitions, deconvolved rewards, value iteration.
+    DeconvModel,
 }
 
 /// Name and one-line description of every learner, in `mmq learners` order.
@@ -62,6 +78,31 @@ pub fn catalogue() -> Vec<(LearnerKind, &'static str, &'static str)> {
             LearnerKind::MmqReference,
             "mmq-reference",
             "Algorithm 1 as a plain loop, the specification of mmq (slow)",
+        ),
+        (
+            LearnerKind::QLambda,
+            "q-lambda",
+            "Watkins's Q(λ), replacing traces decaying by γ·trace_decay, cut at exploratory actions",
+        ),
+        (
+            LearnerKind::SarsaLambda,
+            "sarsa-lambda",
+            "SARSA(λ), replacing traces decaying by γ·trace_decay (on-policy, never cut)",
+        ),
+        (
+            LearnerKind::Oracle,
+            "oracle",
+            "UPPER BOUND, not a real agent: reads the channel's ground truth and credits each reward to its true (s, a, s') on arrival",
+        ),
+        (
+            LearnerKind::DeconvQ,
+            "deconv-q",
+            "model-free: rewards deconvolved into R̂(s,a) with an online delay-pmf estimate (told only λ̂max), Q-learning on R̂",
+        ),
+        (
+            LearnerKind::DeconvModel,
+            "deconv-model",
+            "model-based: counted transitions + deconvolved R̂(s,a) with an online delay-pmf estimate, value iteration every step",
         ),
     ]
 }
@@ -91,13 +132,23 @@ pub struct LearnerSpec {
     pub params: Params,
     /// λ̂ of the fixed-delay learner, steps.
     pub lambda_hat: usize,
-    /// λ̂max of MMQ, steps (N = λ̂max + 1 models; paper: 50).
+    /// λ̂max of MMQ, steps (N = λ̂max + 1 models; paper: 50); also the largest delay the
+    /// deconvolving learners consider.
     pub max_delay: usize,
+    /// Parameters of the learners beyond the paper (traces, deconvolution).
+    #[serde(default)]
+    pub beyond: BeyondParams,
 }
 
 impl Default for LearnerSpec {
     fn default() -> Self {
-        Self { kind: LearnerKind::Mmq, params: Params::default(), lambda_hat: 13, max_delay: 50 }
+        Self {
+            kind: LearnerKind::Mmq,
+            params: Params::default(),
+            lambda_hat: 13,
+            max_delay: 50,
+            beyond: BeyondParams::default(),
+        }
     }
 }
 
@@ -156,7 +207,7 @@ impl LearnerSpec {
         if !p.q0.is_finite() || p.q0.abs() > 1e12 {
             return bad("--q0", p.q0, "use a finite initial value, e.g. 10");
         }
-        Ok(())
+        crate::beyond::validate(self)
     }
 
     /// Bytes of the tables for `num_states` × `num_actions` (exact for the big tables).
@@ -166,6 +217,11 @@ impl LearnerSpec {
             LearnerKind::Q => sa,
             LearnerKind::Fixed => sa + self.lambda_hat as u128,
             LearnerKind::Mmq | LearnerKind::MmqReference => sa * (self.max_delay as u128 + 1),
+            LearnerKind::QLambda | LearnerKind::SarsaLambda | LearnerKind::Oracle => sa,
+            // Q, R̂ and the lag statistics of every pair (worst case: all pairs visited).
+            LearnerKind::DeconvQ | LearnerKind::DeconvModel => {
+                2 * sa + crate::deconv::Deconvolver::stats_bytes(sa as usize, self.max_delay).div_ceil(8)
+            }
         };
         (entries, entries * 8 + num_states as u128 * 12)
     }
@@ -196,6 +252,27 @@ impl LearnerSpec {
             LearnerKind::MmqReference => {
                 Box::new(MmqReference::new(p, self.max_delay, num_states, num_actions))
             }
+            LearnerKind::QLambda => {
+                Box::new(QLambda::new(p, self.beyond.trace_decay, num_states, num_actions))
+            }
+            LearnerKind::SarsaLambda => {
+                Box::new(SarsaLambda::new(p, self.beyond.trace_decay, num_states, num_actions))
+            }
+            LearnerKind::Oracle => Box::new(Oracle::new(p, num_states, num_actions)),
+            LearnerKind::DeconvQ => Box::new(DeconvQ::new(
+                p,
+                crate::beyond::deconv_config(self)?,
+                self.beyond.replay_lag,
+                num_states,
+                num_actions,
+            )),
+            LearnerKind::DeconvModel => Box::new(DeconvModel::new(
+                p,
+                crate::beyond::deconv_config(self)?,
+                self.beyond.optimism_visits,
+                num_states,
+                num_actions,
+            )),
         })
     }
 }

@@ -1,0 +1,149 @@
+//! Hyper-parameters of the learners beyond the paper (issue 8): eligibility traces, the
+//! oracle, and the learners that deconvolve delayed rewards ([`crate::deconv`]). One
+//! documented field each, with serde defaults so configurations written before these
+//! learners existed still parse.
+
+use mmq_core::DelayDist;
+use serde::{Deserialize, Serialize};
+
+use crate::deconv::{DeconvConfig, truncated_pmf};
+use crate::spec::{LearnError, LearnerSpec};
+
+/// Parameters of `q-lambda`, `sarsa-lambda`, `deconv-q` and `deconv-model`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BeyondParams {
+    /// Trace decay of Q(λ) and SARSA(λ), in [0, 1] (called λ in Sutton & Barto; named
+    /// `trace_decay` here so that it is not confused with the Poisson delay λ).
+    pub trace_decay: f64,
+    /// Strength of the zero-mean prior on every reward estimate R̂(s, a), in visits'
+    /// worth of information (≥ 0): R̂ is shrunk by n / (n + prior) after n visits.
+    pub reward_prior: f64,
+    /// L1 (lasso) penalty on R̂(s, a), in reward units (≥ 0): estimates whose evidence is
+    /// weaker than this are set to exactly zero, and the others are biased towards zero
+    /// by this much.
+    pub lasso: f64,
+    /// κ ≥ 0: a reward estimate is kept only when it lies more than κ standard errors
+    /// from zero (a significance threshold added to the lasso).
+    pub significance: f64,
+    /// Fit a reward per state (shared by its actions) besides the reward per pair: the
+    /// sparsest explanation then credits a goal state rather than the pairs that enter it.
+    pub state_rewards: bool,
+    /// κ_p ≥ 0: a delay keeps its estimated probability only with more than κ_p
+    /// standard errors of evidence (0: plain least squares, whose non-negativity turns
+    /// noise into spurious mass at every delay).
+    pub pmf_significance: f64,
+    /// ν ≥ 0: pull of the delay-pmf fit towards the uniform pmf, worth ν visits of the
+    /// largest reward; it fades as rewards come in, so that early fits stay broad.
+    pub pmf_prior: f64,
+    /// Steps between two refits of R̂ and the delay pmf early on (≥ 1); later refits
+    /// come every max(refit_every, t/16) steps.
+    pub refit_every: u64,
+    /// `deconv-model`: a pair tried fewer times than this keeps its optimistic value q0
+    /// (R-max style exploration); 0 plans with every pair's estimate at once.
+    pub optimism_visits: u32,
+    /// `deconv-q`: each transition is learned again this many steps later, when R̂ has
+    /// heard of its reward (0: learned once, at once).
+    pub replay_lag: usize,
+    /// Tells the deconvolving learners the true delay distribution (a `--delay` spec such
+    /// as `poisson:13`) instead of letting them estimate it: an ablation that measures
+    /// what the estimate costs. `None` (the default) = estimate it.
+    pub told_delay: Option<String>,
+}
+
+impl Default for BeyondParams {
+    fn default() -> Self {
+        Self {
+            trace_decay: 0.9,
+            reward_prior: 1.0,
+            lasso: 0.1,
+            significance: 2.0,
+            state_rewards: true,
+            pmf_significance: 2.0,
+            pmf_prior: 50.0,
+            refit_every: 250,
+            optimism_visits: 1,
+            replay_lag: 0,
+            told_delay: None,
+        }
+    }
+}
+
+/// Checks the domains of the parameters of `spec.beyond`.
+pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
+    let b = &spec.beyond;
+    let bad = |field, value: String, accepted| Err(LearnError::InvalidParam { field, value, accepted });
+    if !(0.0..=1.0).contains(&b.trace_decay) {
+        return bad("trace_decay", b.trace_decay.to_string(), "use a trace decay in [0, 1], e.g. 0.9");
+    }
+    if !(b.reward_prior.is_finite() && b.reward_prior >= 0.0) {
+        return bad("reward_prior", b.reward_prior.to_string(), "use a prior strength ≥ 0, e.g. 1");
+    }
+    if !(b.lasso.is_finite() && b.lasso >= 0.0) {
+        return bad("lasso", b.lasso.to_string(), "use an L1 penalty ≥ 0 in reward units, e.g. 0.1");
+    }
+    if !(b.significance.is_finite() && b.significance >= 0.0) {
+        return bad(
+            "significance",
+            b.significance.to_string(),
+            "use a number of standard errors ≥ 0, e.g. 2",
+        );
+    }
+    if !(b.pmf_significance.is_finite() && b.pmf_significance >= 0.0) {
+        return bad(
+            "pmf_significance",
+            b.pmf_significance.to_string(),
+            "use a number of standard errors ≥ 0, e.g. 2",
+        );
+    }
+    if !(b.pmf_prior.is_finite() && b.pmf_prior >= 0.0) {
+        return bad("pmf_prior", b.pmf_prior.to_string(), "use a prior weight ≥ 0 in visits, e.g. 50");
+    }
+    if b.refit_every == 0 {
+        return bad("refit_every", "0".into(), "use at least 1 step between refits, e.g. 250");
+    }
+    let deconv = matches!(spec.kind, crate::LearnerKind::DeconvQ | crate::LearnerKind::DeconvModel);
+    if deconv && spec.max_delay > 1 << 16 {
+        return bad(
+            "--max-delay",
+            spec.max_delay.to_string(),
+            "the deconvolving learners accept at most 65536",
+        );
+    }
+    if b.replay_lag > 1 << 20 {
+        return bad("replay_lag", b.replay_lag.to_string(), "use a lag of at most 2^20 steps");
+    }
+    if let Some(d) = &b.told_delay
+        && DelayDist::parse(d).is_err()
+    {
+        return bad("told_delay", d.clone(), "use a delay spec such as poisson:13 (see --delay)");
+    }
+    Ok(())
+}
+
+/// The deconvolver configuration of a (validated) spec.
+pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
+    let b = &spec.beyond;
+    let told = match &b.told_delay {
+        Some(d) => Some(truncated_pmf(
+            &DelayDist::parse(d).map_err(|_| LearnError::InvalidParam {
+                field: "told_delay",
+                value: d.clone(),
+                accepted: "use a delay spec such as poisson:13 (see --delay)",
+            })?,
+            spec.max_delay,
+        )),
+        None => None,
+    };
+    Ok(DeconvConfig {
+        max_delay: spec.max_delay,
+        reward_prior: b.reward_prior,
+        lasso: b.lasso,
+        significance: b.significance,
+        state_rewards: b.state_rewards,
+        pmf_significance: b.pmf_significance,
+        pmf_prior: b.pmf_prior,
+        refit_every: b.refit_every,
+        told,
+    })
+}

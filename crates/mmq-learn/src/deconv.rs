@@ -1,0 +1,683 @@
+//! Reward deconvolution with an online estimate of the delay distribution: the part of
+//! `deconv-q` and `deconv-model` that turns delivered rewards back into a reward table.
+//!
+//! Transitions are seen at once; only rewards are late. With x_t = (s_t, a_t), R(x) the
+//! expected reward of a pair and p(k) = P(d = k) the delay pmf (k = 0..=K, K the
+//! largest delay the learner is told of), the reward delivered at t has expectation
+//!
+//! ```text
+//! E[r_t | x_0..x_t] = Σ_{k=0..K} p(k) · R(x_{t−k})                               (D1)
+//! ```
+//!
+//! Both unknowns are fitted to everything seen so far by penalised least squares,
+//!
+//! ```text
+//! min_{R, p ∈ simplex}  ½ Σ_t ( r_t − Σ_k p(k) R(x_{t−k}) )²
+//!                       + Σ_x λ₁ G(x, x) |R(x)| + ½ μ Σ_k p(k)² Σ_x R(x)²          (D2)
+//! ```
+//!
+//! (λ₁ = `lasso` in reward units: an isolated pair's estimate is biased towards zero by
+//! λ₁ and evidence weaker than that gives exactly zero; μ = `reward_prior`, in visits),
+//! by alternating exact minimisations at refit times:
+//!
+//! * **R given p** is a lasso with Gram matrix G = Σ_t ψ_t ψ_tᵀ, ψ_t(x) = Σ_{k: x_{t−k}=x}
+//!   p(k), and b = Σ_t r_t ψ_t, solved by coordinate descent from the previous R̂;
+//! * **p given R** is a 51-dimensional quadratic programme over the simplex, solved by
+//!   accelerated projected gradient (FISTA) from the previous p̂.
+//!
+//! Neither needs the history: with the lag co-occurrence counts
+//! C_j(x, x') = #{t : x_{t−j} = x, x_t = x'} and the lagged reward sums
+//! B_k(x) = Σ_t r_t 1[x_{t−k} = x] (j, k = 0..=K, both updated in O(K) per step),
+//!
+//! ```text
+//! G = Σ_{j≥0} a_j C_j + Σ_{j≥1} a_j C_jᵀ,   a_j = Σ_k p(k) p(k+j),   b(x) = Σ_k p(k) B_k(x)
+//! Σ_t y_{t−k} y_{t−k'} = Rᵀ C_{|k−k'|} R,   Σ_t r_t y_{t−k} = Σ_x R(x) B_k(x)        (y_u = R(x_u))
+//! ```
+//!
+//! up to edge terms of the last K steps. Memory is (K + 1)·X² counts for the X pairs
+//! visited so far. p̂ starts uniform on 0..=K; when the learner is told the pmf, only R
+//! is fitted.
+
+use mmq_core::DelayDist;
+
+/// Iterations of the projected-gradient solve for p.
+const QP_ITERS: usize = 300;
+/// Coordinate-descent sweeps for R (at most; stops when no estimate moves by 1e-9).
+const CD_SWEEPS: usize = 40;
+/// No pair yet.
+const UNSEEN: u32 = u32::MAX;
+
+/// Steps between two snapshots of the delay estimate (reported by `metrics`).
+pub const SNAPSHOT_EVERY: u64 = 10_000;
+
+/// Configuration of a [`Deconvolver`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeconvConfig {
+    /// K: the largest delay considered, steps.
+    pub max_delay: usize,
+    /// μ of (D2): ridge strength on R̂, in visits' worth of information.
+    pub reward_prior: f64,
+    /// λ₁ of (D2), reward units.
+    pub lasso: f64,
+    /// κ: an estimate is kept only when it is more than κ standard errors from zero
+    /// (the threshold of (D2) grows by κ σ̂ √G(x, x), σ̂ the residual deviation).
+    pub significance: f64,
+    /// Reward features per state (shared by its actions) besides those per pair.
+    pub state_rewards: bool,
+    /// κ_p: a lag keeps its mass only with more than κ_p standard errors of evidence
+    /// (an L1 penalty κ_p σ̂ √A_kk on p over {p ≥ 0, Σ p ≤ 1}, then renormalised);
+    /// without it the non-negativity turns noise into spurious mass at every lag.
+    pub pmf_significance: f64,
+    /// ν: pull ½ ν max_x R̂(x)² ‖p − uniform‖² of the pmf fit towards the uniform pmf,
+    /// in visits of the largest reward: it dominates while few rewards were seen and
+    /// fades as data come in, so early fits stay broad instead of locking onto a lag.
+    pub pmf_prior: f64,
+    /// Steps between two refits early on; later refits come every max(this, t/16) steps.
+    pub refit_every: u64,
+    /// A known pmf over 0..=K (then p̂ is not estimated).
+    pub told: Option<Vec<f64>>,
+}
+
+/// The delay pmf of `dist` over 0..=`max_delay`, the tail beyond folded into the last bin.
+pub fn truncated_pmf(dist: &DelayDist, max_delay: usize) -> Vec<f64> {
+    let mut p: Vec<f64> = (0..=max_delay as u32).map(|k| dist.pmf(k)).collect();
+    let total: f64 = p.iter().sum();
+    if let Some(last) = p.last_mut() {
+        *last += (1.0 - total).max(0.0);
+    }
+    p
+}
+
+/// Mean of a pmf over 0, 1, 2, ...
+pub fn pmf_mean(p: &[f64]) -> f64 {
+    let s: f64 = p.iter().sum();
+    p.iter().enumerate().map(|(k, x)| k as f64 * x).sum::<f64>() / s
+}
+
+/// Median of a pmf over 0, 1, 2, ..., interpolated inside the bin where the cumulative
+/// probability crosses one half (each bin k spread uniformly over [k − ½, k + ½]).
+pub fn pmf_median(p: &[f64]) -> f64 {
+    let s: f64 = p.iter().sum();
+    let mut acc = 0.0;
+    for (k, &x) in p.iter().enumerate() {
+        let x = x / s;
+        if x > 0.0 && acc + x >= 0.5 {
+            return k as f64 - 0.5 + (0.5 - acc) / x;
+        }
+        acc += x;
+    }
+    p.len() as f64 - 0.5
+}
+
+/// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
+pub fn project_simplex(v: &mut [f64]) {
+    let mut u: Vec<f64> = v.to_vec();
+    u.sort_by(|a, b| b.total_cmp(a));
+    let mut acc = 0.0;
+    let mut theta = 0.0;
+    for (i, &x) in u.iter().enumerate() {
+        acc += x;
+        let t = (acc - 1.0) / (i + 1) as f64;
+        if x - t > 0.0 {
+            theta = t;
+        }
+    }
+    v.iter_mut().for_each(|x| *x = (*x - theta).max(0.0));
+}
+
+/// Projects `v` onto {p ≥ 0, Σ p ≤ 1}.
+pub fn project_capped_simplex(v: &mut [f64]) {
+    let pos: f64 = v.iter().map(|x| x.max(0.0)).sum();
+    if pos <= 1.0 {
+        v.iter_mut().for_each(|x| *x = x.max(0.0));
+    } else {
+        project_simplex(v);
+    }
+}
+
+/// One snapshot of the delay estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Snapshot {
+    /// Steps observed.
+    pub t: u64,
+    /// Mean of p̂.
+    pub mean: f64,
+    /// Median of p̂ ([`pmf_median`]).
+    pub median: f64,
+}
+
+/// The reward table R̂ and delay pmf p̂ of (D1)–(D2), refitted as data comes in.
+#[derive(Clone, Debug)]
+pub struct Deconvolver {
+    cfg: DeconvConfig,
+    /// p̂(0..=K).
+    pmf: Vec<f64>,
+    /// R̂ by pair id (0 for pairs never seen): the state part plus the pair part.
+    r: Vec<f64>,
+    /// The pair part of R̂, by pair id.
+    r_pair: Vec<f64>,
+    /// The state part of R̂ (shared by every action of a state), by state.
+    r_state: Vec<f64>,
+    /// |A|: pair id x belongs to state x / |A|.
+    num_actions: usize,
+    /// Compact index of each pair id (UNSEEN until first taken).
+    index: Vec<u32>,
+    /// Pair id of each compact index.
+    pairs: Vec<u32>,
+    /// Capacity of the compact index (stride of `c`).
+    cap: usize,
+    /// C_j(i, i') at (j·cap + i)·cap + i', i the earlier pair.
+    c: Vec<u32>,
+    /// B_k(i) at k·cap + i.
+    b: Vec<f64>,
+    /// Compact indices of the last 2(K + 1) steps, by t mod 2(K + 1).
+    recent: Vec<u32>,
+    /// Σ_t r_t².
+    sum_r2: f64,
+    /// Residual sum of squares of the last fit of R (None before the first).
+    rss: Option<f64>,
+    /// Steps observed.
+    t: u64,
+    /// First step of the current history (after `reset_history`).
+    start: u64,
+    next_refit: u64,
+    refits: u64,
+    snapshots: Vec<Snapshot>,
+}
+
+impl Deconvolver {
+    /// A deconvolver over `num_states` × `num_actions` pairs (pair id s·|A| + a); p̂
+    /// uniform on 0..=K unless told.
+    pub fn new(cfg: DeconvConfig, num_states: usize, num_actions: usize) -> Self {
+        let num_pairs = num_states * num_actions;
+        let k = cfg.max_delay;
+        let pmf = match &cfg.told {
+            Some(p) => {
+                let mut p = p.clone();
+                p.resize(k + 1, 0.0);
+                let s: f64 = p.iter().sum();
+                p.iter_mut().for_each(|x| *x /= s);
+                p
+            }
+            None => vec![1.0 / (k + 1) as f64; k + 1],
+        };
+        let cap = 16.min(num_pairs.max(1));
+        Self {
+            next_refit: cfg.refit_every,
+            cfg,
+            pmf,
+            r: vec![0.0; num_pairs],
+            r_pair: vec![0.0; num_pairs],
+            r_state: vec![0.0; num_states],
+            num_actions,
+            index: vec![UNSEEN; num_pairs],
+            pairs: Vec::new(),
+            cap,
+            c: vec![0; (k + 1) * cap * cap],
+            b: vec![0.0; (k + 1) * cap],
+            recent: vec![UNSEEN; 2 * (k + 1)],
+            sum_r2: 0.0,
+            rss: None,
+            t: 0,
+            start: 0,
+            refits: 0,
+            snapshots: Vec::new(),
+        }
+    }
+
+    /// R̂(x).
+    #[inline]
+    pub fn reward(&self, x: usize) -> f64 {
+        self.r[x]
+    }
+
+    /// The whole reward table R̂ by pair id.
+    pub fn rewards(&self) -> &[f64] {
+        &self.r
+    }
+
+    /// The delay pmf p̂(0..=K).
+    pub fn pmf(&self) -> &[f64] {
+        &self.pmf
+    }
+
+    /// Snapshots of the delay estimate, every [`SNAPSHOT_EVERY`] steps.
+    pub fn snapshots(&self) -> &[Snapshot] {
+        &self.snapshots
+    }
+
+    /// Whether p̂ is estimated (not told).
+    pub fn estimates_delay(&self) -> bool {
+        self.cfg.told.is_none()
+    }
+
+    /// Steps observed.
+    pub fn steps(&self) -> u64 {
+        self.t
+    }
+
+    /// Refits so far.
+    pub fn refits(&self) -> u64 {
+        self.refits
+    }
+
+    /// Pairs taken so far.
+    pub fn pairs_seen(&self) -> usize {
+        self.pairs.len()
+    }
+
+    /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`.
+    pub fn stats_bytes(pairs: usize, max_delay: usize) -> u128 {
+        let (p, k) = (pairs as u128, max_delay as u128 + 1);
+        k * p * p * 4 + k * p * 8 + p * 24
+    }
+
+    fn compact(&mut self, x: usize) -> usize {
+        if self.index[x] != UNSEEN {
+            return self.index[x] as usize;
+        }
+        let i = self.pairs.len();
+        if i == self.cap {
+            self.grow();
+        }
+        self.index[x] = i as u32;
+        self.pairs.push(x as u32);
+        i
+    }
+
+    /// Doubles the compact capacity, keeping every count.
+    fn grow(&mut self) {
+        let (old, new) = (self.cap, (self.cap * 2).min(self.r.len()).max(self.cap + 1));
+        let k_n = self.cfg.max_delay + 1;
+        let mut c = vec![0u32; k_n * new * new];
+        let mut b = vec![0.0; k_n * new];
+        for j in 0..k_n {
+            for i in 0..old {
+                let src = (j * old + i) * old;
+                let dst = (j * new + i) * new;
+                c[dst..dst + old].copy_from_slice(&self.c[src..src + old]);
+            }
+            b[j * new..j * new + old].copy_from_slice(&self.b[j * old..(j + 1) * old]);
+        }
+        self.c = c;
+        self.b = b;
+        self.cap = new;
+    }
+
+    /// One step: pair `x` was taken and `reward` was delivered. Refits when due; returns
+    /// true when it did.
+    pub fn observe(&mut self, x: usize, reward: f64) -> bool {
+        let i = self.compact(x);
+        let k_n = self.cfg.max_delay + 1;
+        let cap = self.cap;
+        self.recent[(self.t % (2 * k_n) as u64) as usize] = i as u32;
+        self.sum_r2 += reward * reward;
+        let kmax = (self.cfg.max_delay as u64).min(self.t - self.start) as usize;
+        for k in 0..=kmax {
+            let e = self.past(self.t - k as u64);
+            self.c[(k * cap + e) * cap + i] += 1;
+            self.b[k * cap + e] += reward;
+        }
+        self.t += 1;
+        let mut refitted = false;
+        if self.t >= self.next_refit {
+            self.refit();
+            self.next_refit = self.t + self.cfg.refit_every.max(self.t / 16);
+            refitted = true;
+        }
+        if self.t.is_multiple_of(SNAPSHOT_EVERY) {
+            self.snapshots.push(Snapshot {
+                t: self.t,
+                mean: pmf_mean(&self.pmf),
+                median: pmf_median(&self.pmf),
+            });
+        }
+        refitted
+    }
+
+    /// Compact index of the pair taken at step `u` (one of the last 2(K + 1)).
+    #[inline]
+    fn past(&self, u: u64) -> usize {
+        self.recent[(u % self.recent.len() as u64) as usize] as usize
+    }
+
+    /// Refits R̂ given p̂, then (when estimating) p̂ given R̂ and R̂ again.
+    pub fn refit(&mut self) {
+        if self.pairs.is_empty() {
+            return;
+        }
+        self.fit_rewards();
+        if self.cfg.told.is_none() {
+            self.fit_pmf();
+            self.fit_rewards();
+        }
+        self.refits += 1;
+    }
+
+    /// R given p: lasso by coordinate descent on (G, b), warm-started.
+    fn fit_rewards(&mut self) {
+        let n = self.pairs.len();
+        let cap = self.cap;
+        let k_n = self.cfg.max_delay + 1;
+        let p = &self.pmf;
+        // a_j = Σ_k p(k) p(k+j)
+        let a: Vec<f64> = (0..k_n).map(|j| (0..k_n - j).map(|k| p[k] * p[k + j]).sum()).collect();
+        // H = a_0/2 C_0 + Σ_{j≥1} a_j C_j, then G = H + Hᵀ.
+        let mut g = vec![0.0; n * n];
+        for (j, &aj) in a.iter().enumerate() {
+            let w = if j == 0 { aj / 2.0 } else { aj };
+            if w == 0.0 {
+                continue;
+            }
+            for i in 0..n {
+                let src = &self.c[(j * cap + i) * cap..(j * cap + i) * cap + n];
+                let row = &mut g[i * n..(i + 1) * n];
+                for (gv, &cv) in row.iter_mut().zip(src) {
+                    *gv += w * cv as f64;
+                }
+            }
+        }
+        for i in 0..n {
+            for i2 in i..n {
+                let s = g[i * n + i2] + g[i2 * n + i];
+                g[i * n + i2] = s;
+                g[i2 * n + i] = s;
+            }
+        }
+        // Edge terms: a pair (u − j, u) with u among the last K steps has fewer than K + 1
+        // windows after it; C_j counted it with the full weight a_j.
+        let big_t = self.t;
+        for u in self.start.max(big_t.saturating_sub(k_n as u64 - 1))..big_t {
+            let left = (big_t - 1 - u) as usize; // windows end at t = u..=T−1, k' ≤ left
+            for j in 0..=((k_n - 1).min((u - self.start) as usize)) {
+                let deficit: f64 = (left + 1..k_n - j).map(|k2| p[k2 + j] * p[k2]).sum();
+                if deficit == 0.0 {
+                    continue;
+                }
+                let (v, w) = (self.past(u - j as u64), self.past(u));
+                g[v * n + w] -= deficit;
+                if j > 0 {
+                    g[w * n + v] -= deficit;
+                }
+            }
+        }
+        let bvec: Vec<f64> = (0..n).map(|i| (0..k_n).map(|k| p[k] * self.b[k * cap + i]).sum()).collect();
+        let ridge = self.cfg.reward_prior * a[0];
+        // σ̂ from the previous fit (Σ r² before the first: an upper bound).
+        let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
+        let kappa = self.cfg.significance * sigma;
+        let lasso = self.cfg.lasso;
+        let soft = |z: f64, info: f64| {
+            let thr = lasso * info + kappa * info.sqrt();
+            if z > thr {
+                (z - thr) / (info + ridge)
+            } else if z < -thr {
+                (z + thr) / (info + ridge)
+            } else {
+                0.0
+            }
+        };
+        // Groups: the compact pairs of each state (state features, when enabled).
+        let a_n = self.num_actions;
+        let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
+        {
+            let mut slot = std::collections::HashMap::new();
+            for (i, &x) in self.pairs.iter().enumerate() {
+                let st = x as usize / a_n;
+                let g_i = *slot.entry(st).or_insert_with(|| {
+                    groups.push((st, Vec::new()));
+                    groups.len() - 1
+                });
+                groups[g_i].1.push(i);
+            }
+        }
+        let mut rp: Vec<f64> = self.pairs.iter().map(|&x| self.r_pair[x as usize]).collect();
+        let mut rs: Vec<f64> = groups.iter().map(|(st, _)| self.r_state[*st]).collect();
+        if !self.cfg.state_rewards {
+            rs.iter_mut().for_each(|x| *x = 0.0);
+        }
+        // r = total R̂ per compact pair; gr = G r.
+        let mut r: Vec<f64> = vec![0.0; n];
+        for (gi, (_, members)) in groups.iter().enumerate() {
+            for &i in members {
+                r[i] = rs[gi] + rp[i];
+            }
+        }
+        let mut gr: Vec<f64> =
+            (0..n).map(|i| g[i * n..(i + 1) * n].iter().zip(&r).map(|(x, y)| x * y).sum()).collect();
+        let mut gss: Vec<f64> = vec![0.0; groups.len()];
+        for (gi, (_, members)) in groups.iter().enumerate() {
+            gss[gi] = members.iter().map(|&i| members.iter().map(|&i2| g[i * n + i2]).sum::<f64>()).sum();
+        }
+        for _ in 0..CD_SWEEPS {
+            let mut moved: f64 = 0.0;
+            for (gi, (_, members)) in groups.iter().enumerate() {
+                // The state feature: one value shared by every action of the state.
+                if self.cfg.state_rewards && members.len() > 1 && gss[gi] > 0.0 {
+                    let z: f64 = members.iter().map(|&i| bvec[i] - gr[i]).sum::<f64>() + gss[gi] * rs[gi];
+                    let d = soft(z, gss[gi]) - rs[gi];
+                    if d != 0.0 {
+                        rs[gi] += d;
+                        for &i in members {
+                            r[i] += d;
+                            for (gv, &gc) in gr.iter_mut().zip(&g[i * n..(i + 1) * n]) {
+                                *gv += gc * d;
+                            }
+                        }
+                        moved = moved.max(d.abs());
+                    }
+                }
+                // The pair features.
+                for &i in members {
+                    let gii = g[i * n + i];
+                    if gii <= 0.0 {
+                        continue;
+                    }
+                    let z = bvec[i] - gr[i] + gii * rp[i];
+                    let d = soft(z, gii) - rp[i];
+                    if d != 0.0 {
+                        rp[i] += d;
+                        r[i] += d;
+                        for (gv, &gc) in gr.iter_mut().zip(&g[i * n..(i + 1) * n]) {
+                            *gv += gc * d;
+                        }
+                        moved = moved.max(d.abs());
+                    }
+                }
+            }
+            if moved < 1e-9 {
+                break;
+            }
+        }
+        // RSS = Σ r² − 2 Rᵀb + Rᵀ G R
+        let rb: f64 = r.iter().zip(&bvec).map(|(x, y)| x * y).sum();
+        let rgr: f64 = r.iter().zip(&gr).map(|(x, y)| x * y).sum();
+        self.rss = Some(self.sum_r2 - 2.0 * rb + rgr);
+        for (i, &x) in self.pairs.iter().enumerate() {
+            self.r[x as usize] = r[i];
+            self.r_pair[x as usize] = rp[i];
+        }
+        for (gi, (st, _)) in groups.iter().enumerate() {
+            self.r_state[*st] = rs[gi];
+        }
+    }
+
+    /// p given R: FISTA over the simplex on ½ pᵀAp − cᵀp.
+    fn fit_pmf(&mut self) {
+        let n = self.pairs.len();
+        let cap = self.cap;
+        let k_n = self.cfg.max_delay + 1;
+        let r: Vec<f64> = self.pairs.iter().map(|&x| self.r[x as usize]).collect();
+        if r.iter().all(|&v| v == 0.0) {
+            return;
+        }
+        // q_j = Rᵀ C_j R over the support of R;  c_k = Σ_i R_i B_k(i).
+        let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
+        let mut q = vec![0.0; k_n];
+        for (j, qj) in q.iter_mut().enumerate() {
+            let mut acc = 0.0;
+            for &i in &support {
+                let row = &self.c[(j * cap + i) * cap..(j * cap + i) * cap + n];
+                let s: f64 = support.iter().map(|&i2| row[i2] as f64 * r[i2]).sum();
+                acc += r[i] * s;
+            }
+            *qj = acc;
+        }
+        let cvec: Vec<f64> = (0..k_n).map(|k| (0..n).map(|i| r[i] * self.b[k * cap + i]).sum()).collect();
+        // A_{kk'} = Σ_t y_{t−k} y_{t−k'} = q_{|k−k'|} − E(|k−k'|, min(k, k')), where
+        // E(j, m) = Σ_{u=T−m}^{T−1} y_{u−j} y_u removes the windows that end after now.
+        let big_t = self.t;
+        let y_at = |u: u64| r[self.past(u)];
+        let mut e = vec![0.0; k_n * k_n];
+        for j in 0..k_n {
+            let mut acc = 0.0;
+            for m in 1..k_n {
+                if big_t >= self.start + m as u64 + j as u64 {
+                    let u = big_t - m as u64;
+                    acc += y_at(u - j as u64) * y_at(u);
+                }
+                e[j * k_n + m] = acc;
+            }
+        }
+        let amat = |i: usize, j: usize| {
+            let d = i.abs_diff(j);
+            q[d] - e[d * k_n + i.min(j)]
+        };
+        let mut v = vec![1.0; k_n];
+        let mut lmax = 0.0;
+        for _ in 0..30 {
+            let w: Vec<f64> = (0..k_n).map(|i| (0..k_n).map(|j| amat(i, j) * v[j]).sum()).collect();
+            let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if norm == 0.0 || !norm.is_finite() {
+                return;
+            }
+            lmax = norm / v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            v = w.iter().map(|x| x / norm).collect();
+        }
+        // Significance penalty on the mass of each lag (σ̂ as in the reward fit).
+        let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
+        let lam = self.cfg.pmf_significance * sigma * q[0].max(0.0).sqrt();
+        let rmax = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let nu = self.cfg.pmf_prior * rmax * rmax;
+        let uni = 1.0 / k_n as f64;
+        let step = 1.0 / ((lmax + nu) * 1.05);
+        let mut p = self.pmf.clone();
+        let mut z = p.clone();
+        let mut theta: f64 = 1.0;
+        let mut next = vec![0.0; k_n];
+        for _ in 0..QP_ITERS {
+            for i in 0..k_n {
+                let grad: f64 =
+                    (0..k_n).map(|j| amat(i, j) * z[j]).sum::<f64>() - cvec[i] + nu * (z[i] - uni) + lam;
+                next[i] = z[i] - step * grad;
+            }
+            project_capped_simplex(&mut next);
+            let theta2 = (1.0 + (1.0 + 4.0 * theta * theta).sqrt()) / 2.0;
+            let mom = (theta - 1.0) / theta2;
+            for i in 0..k_n {
+                z[i] = next[i] + mom * (next[i] - p[i]);
+            }
+            p.copy_from_slice(&next);
+            theta = theta2;
+        }
+        let total: f64 = p.iter().sum();
+        if total > 0.0 {
+            p.iter_mut().for_each(|x| *x /= total);
+            self.pmf = p;
+        }
+    }
+
+    /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
+    pub fn reset_history(&mut self) {
+        self.start = self.t;
+    }
+
+    /// Learner metrics: the delay estimate now and at every snapshot, and p̂ itself.
+    pub fn metrics(&self) -> Vec<(String, f64)> {
+        let mut m = vec![
+            ("delay/mean_est".to_string(), pmf_mean(&self.pmf)),
+            ("delay/median_est".to_string(), pmf_median(&self.pmf)),
+            ("delay/refits".to_string(), self.refits as f64),
+            ("delay/estimated".to_string(), f64::from(u8::from(self.estimates_delay()))),
+            ("learner/pairs_seen".to_string(), self.pairs.len() as f64),
+        ];
+        for s in &self.snapshots {
+            m.push((format!("delay/mean_est@{}", s.t), s.mean));
+            m.push((format!("delay/median_est@{}", s.t), s.median));
+        }
+        for (k, p) in self.pmf.iter().enumerate() {
+            m.push((format!("delay/pmf/{k:03}"), *p));
+        }
+        m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mmq_core::seed::rng_from_seed;
+    use rand::RngExt;
+
+    fn cfg(k: usize, told: Option<Vec<f64>>) -> DeconvConfig {
+        DeconvConfig {
+            max_delay: k,
+            reward_prior: 0.0,
+            lasso: 0.0,
+            significance: 0.0,
+            state_rewards: false,
+            pmf_significance: 0.0,
+            pmf_prior: 0.0,
+            refit_every: 1_000_000,
+            told,
+        }
+    }
+
+    /// Noise-free expected rewards: the fit recovers R exactly.
+    #[test]
+    fn recovers_rewards_from_expected_deliveries() {
+        let k = 6;
+        let p = vec![0.0, 0.1, 0.2, 0.4, 0.2, 0.1, 0.0];
+        let truth = [0.0, 10.0, -1.0, 0.0, 3.0, 0.0, -2.0, 0.5];
+        let mut d = Deconvolver::new(cfg(k, Some(p.clone())), truth.len(), 1);
+        let mut rng = rng_from_seed(7);
+        let mut xs = Vec::new();
+        for t in 0..5000 {
+            let x = rng.random_range(0..truth.len());
+            xs.push(x);
+            let r: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
+            d.observe(x, r);
+        }
+        d.refit();
+        for (x, &want) in truth.iter().enumerate() {
+            assert!((d.reward(x) - want).abs() < 1e-9, "R̂({x}) = {} vs {want}", d.reward(x));
+        }
+    }
+
+    /// Noise-free expected rewards, delay pmf unknown: alternating refits from the
+    /// uniform pmf find both the pmf and the rewards.
+    #[test]
+    fn recovers_the_delay_pmf() {
+        let k = 8;
+        let p = vec![0.0, 0.0, 0.1, 0.6, 0.3, 0.0, 0.0, 0.0, 0.0];
+        let truth = [0.0, 10.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let mut d = Deconvolver::new(cfg(k, None), truth.len(), 1);
+        let mut rng = rng_from_seed(8);
+        let mut xs = Vec::new();
+        for t in 0..20_000 {
+            let x = rng.random_range(0..truth.len());
+            xs.push(x);
+            let r: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
+            d.observe(x, r);
+        }
+        for _ in 0..50 {
+            d.refit();
+        }
+        for (j, &want) in p.iter().enumerate() {
+            assert!((d.pmf()[j] - want).abs() < 1e-3, "p̂({j}) = {} vs {want}", d.pmf()[j]);
+        }
+        for (x, &want) in truth.iter().enumerate() {
+            assert!((d.reward(x) - want).abs() < 1e-2, "R̂({x}) = {} vs {want}", d.reward(x));
+        }
+        assert!((pmf_median(d.pmf()) - (2.5 + 0.4 / 0.6)).abs() < 0.01);
+    }
+}

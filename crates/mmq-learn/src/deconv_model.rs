@@ -1,0 +1,157 @@
+//! `deconv-model`: model-based learning under delayed rewards. Transitions are counted
+//! as they are seen (they are not delayed), rewards come from the deconvolved table R̂
+//! ([`crate::deconv`], which also estimates the delay pmf), and the action values are
+//! planned by value iteration on the learned model, one Gauss–Seidel sweep per step:
+//!
+//! ```text
+//! P̂(s' | s, a) = N(s, a, s') / N(s, a)
+//! Q(s, a) = q0                                              if N(s, a) < m
+//! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) max_a' Q(s', a')  otherwise          (M1)
+//! ```
+//!
+//! m = `optimism_visits`: pairs tried fewer times keep the optimistic q0 (R-max style),
+//! which drives exploration on top of ε-greedy.
+
+use mmq_core::{Action, Rng, State};
+
+use crate::deconv::{DeconvConfig, Deconvolver};
+use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::spec::Params;
+use crate::{Decision, Experience, Learner, Table, max_of};
+
+/// Model-based learner on counted transitions and deconvolved rewards.
+#[derive(Clone, Debug)]
+pub struct DeconvModel {
+    p: Params,
+    num_actions: usize,
+    /// Planned Q(s, a), [s × |A| + a].
+    q: Vec<f64>,
+    /// max_a Q(s, a).
+    v: Vec<f64>,
+    /// N(s, a).
+    tries: Vec<u32>,
+    /// (s', N(s, a, s')) per pair.
+    next: Vec<Vec<(u32, u32)>>,
+    deconv: Deconvolver,
+    optimism_visits: u32,
+}
+
+impl DeconvModel {
+    /// A model over `num_states` × `num_actions`; every value starts at q0.
+    pub fn new(
+        p: Params,
+        cfg: DeconvConfig,
+        optimism_visits: u32,
+        num_states: usize,
+        num_actions: usize,
+    ) -> Self {
+        let pairs = num_states * num_actions;
+        Self {
+            p,
+            num_actions,
+            q: vec![p.q0; pairs],
+            v: vec![p.q0; num_states],
+            tries: vec![0; pairs],
+            next: vec![Vec::new(); pairs],
+            deconv: Deconvolver::new(cfg, num_states, num_actions),
+            optimism_visits,
+        }
+    }
+
+    fn row(&self, s: State) -> &[f64] {
+        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
+    }
+
+    /// Q(s, a).
+    pub fn q(&self, s: State, a: Action) -> f64 {
+        self.q[s * self.num_actions + a]
+    }
+
+    /// The deconvolver (R̂ and p̂).
+    pub fn deconvolver(&self) -> &Deconvolver {
+        &self.deconv
+    }
+
+    /// One Gauss–Seidel sweep of (M1) over every state, in state order.
+    pub fn plan(&mut self) {
+        let (a_n, gamma, q0, m) = (self.num_actions, self.p.gamma, self.p.q0, self.optimism_visits);
+        for s in 0..self.v.len() {
+            let mut best = f64::NEG_INFINITY;
+            for a in 0..a_n {
+                let i = s * a_n + a;
+                let n = self.tries[i];
+                let q = if n < m || n == 0 {
+                    q0
+                } else {
+                    let inv = 1.0 / n as f64;
+                    let ev: f64 = self.next[i].iter().map(|&(s2, c)| c as f64 * self.v[s2 as usize]).sum();
+                    // (M1)
+                    self.deconv.reward(i) + gamma * ev * inv
+                };
+                self.q[i] = q;
+                best = best.max(q);
+            }
+            self.v[s] = best;
+        }
+    }
+}
+
+impl Learner for DeconvModel {
+    fn name(&self) -> &'static str {
+        "deconv-model"
+    }
+
+    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
+        let row = self.row(s);
+        let (action, explored) =
+            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        Decision { action, model: None, explored }
+    }
+
+    fn observe(&mut self, e: &Experience<'_>) {
+        let i = e.state * self.num_actions + e.action;
+        self.deconv.observe(i, e.reward);
+        self.tries[i] += 1;
+        let s2 = e.next_state as u32;
+        match self.next[i].iter_mut().find(|x| x.0 == s2) {
+            Some(x) => x.1 += 1,
+            None => self.next[i].push((s2, 1)),
+        }
+        self.plan();
+    }
+
+    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
+        argmax_random_tie(self.row(s), rng)
+    }
+
+    fn action_values(&self, s: State, out: &mut [f64]) {
+        out.copy_from_slice(self.row(s));
+    }
+
+    fn tables(&self) -> Vec<Table> {
+        let n_s = self.v.len();
+        vec![
+            Table { name: "q".into(), shape: vec![n_s, self.num_actions], data: self.q.clone() },
+            Table {
+                name: "r_hat".into(),
+                shape: vec![n_s, self.num_actions],
+                data: self.deconv.rewards().to_vec(),
+            },
+            Table {
+                name: "delay_pmf".into(),
+                shape: vec![self.deconv.pmf().len()],
+                data: self.deconv.pmf().to_vec(),
+            },
+        ]
+    }
+
+    fn metrics(&self) -> Vec<(String, f64)> {
+        let mut m = self.deconv.metrics();
+        m.push(("learner/value_max".into(), max_of(&self.v)));
+        m
+    }
+
+    fn reset_history(&mut self) {
+        self.deconv.reset_history();
+    }
+}

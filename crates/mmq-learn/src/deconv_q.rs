@@ -1,0 +1,141 @@
+//! `deconv-q`: model-free Q-learning on a deconvolved reward table. The delivered reward
+//! never enters a Q update directly; it only trains R̂(s, a) ([`crate::deconv`], which
+//! also estimates the delay pmf), and every transition is learned at once with
+//!
+//! ```text
+//! Q(s_t, a_t) ← Q(s_t, a_t) + α [ R̂(s_t, a_t) + γ max_a' Q(s_{t+1}, a') − Q(s_t, a_t) ]   (2')
+//! ```
+//!
+//! — eq. (2) with the reward replaced by its current estimate. Since R̂(s_t, a_t) has not
+//! yet heard of this visit's own reward, the transition of `replay_lag` steps ago is
+//! learned again by the same rule (a one-transition replay; 0 turns it off).
+
+use mmq_core::{Action, Rng, State};
+
+use crate::deconv::{DeconvConfig, Deconvolver};
+use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::spec::Params;
+use crate::{Decision, Experience, Learner, Table, max_of};
+
+/// Q-learning on R̂.
+#[derive(Clone, Debug)]
+pub struct DeconvQ {
+    p: Params,
+    num_actions: usize,
+    q: Vec<f64>,
+    deconv: Deconvolver,
+    /// Steps after which a transition is learned a second time (0: never).
+    replay_lag: usize,
+    /// (s, a, s') of the last `replay_lag` + 1 steps, by t mod length.
+    history: Vec<(u32, u32, u32)>,
+    /// Steps since the last history reset.
+    seen: u64,
+}
+
+impl DeconvQ {
+    /// Q-learning over `num_states` × `num_actions` with the deconvolver configured by
+    /// `cfg`; `replay_lag` = 0 learns each transition once.
+    pub fn new(
+        p: Params,
+        cfg: DeconvConfig,
+        replay_lag: usize,
+        num_states: usize,
+        num_actions: usize,
+    ) -> Self {
+        Self {
+            p,
+            num_actions,
+            q: vec![p.q0; num_states * num_actions],
+            deconv: Deconvolver::new(cfg, num_states, num_actions),
+            replay_lag,
+            history: vec![(0, 0, 0); replay_lag + 1],
+            seen: 0,
+        }
+    }
+
+    fn row(&self, s: State) -> &[f64] {
+        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
+    }
+
+    /// Q(s, a).
+    pub fn q(&self, s: State, a: Action) -> f64 {
+        self.q[s * self.num_actions + a]
+    }
+
+    /// The deconvolver (R̂ and p̂).
+    pub fn deconvolver(&self) -> &Deconvolver {
+        &self.deconv
+    }
+
+    #[inline]
+    fn learn(&mut self, s: usize, a: usize, s2: usize) {
+        let (alpha, gamma) = (self.p.alpha, self.p.gamma);
+        let m = max_of(self.row(s2));
+        let i = s * self.num_actions + a;
+        let r = self.deconv.reward(i);
+        // eq. (2')
+        self.q[i] += alpha * (r + gamma * m - self.q[i]);
+    }
+}
+
+impl Learner for DeconvQ {
+    fn name(&self) -> &'static str {
+        "deconv-q"
+    }
+
+    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
+        let row = self.row(s);
+        let (action, explored) =
+            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        Decision { action, model: None, explored }
+    }
+
+    fn observe(&mut self, e: &Experience<'_>) {
+        self.deconv.observe(e.state * self.num_actions + e.action, e.reward);
+        self.learn(e.state, e.action, e.next_state);
+        if self.replay_lag > 0 {
+            let n = self.history.len();
+            let slot = self.seen as usize % n;
+            self.history[slot] = (e.state as u32, e.action as u32, e.next_state as u32);
+            if self.seen >= self.replay_lag as u64 {
+                let (s, a, s2) = self.history[(self.seen as usize - self.replay_lag) % n];
+                self.learn(s as usize, a as usize, s2 as usize);
+            }
+        }
+        self.seen += 1;
+    }
+
+    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
+        argmax_random_tie(self.row(s), rng)
+    }
+
+    fn action_values(&self, s: State, out: &mut [f64]) {
+        out.copy_from_slice(self.row(s));
+    }
+
+    fn tables(&self) -> Vec<Table> {
+        let n_s = self.q.len() / self.num_actions;
+        vec![
+            Table { name: "q".into(), shape: vec![n_s, self.num_actions], data: self.q.clone() },
+            Table {
+                name: "r_hat".into(),
+                shape: vec![n_s, self.num_actions],
+                data: self.deconv.rewards().to_vec(),
+            },
+            Table {
+                name: "delay_pmf".into(),
+                shape: vec![self.deconv.pmf().len()],
+                data: self.deconv.pmf().to_vec(),
+            },
+        ]
+    }
+
+    fn metrics(&self) -> Vec<(String, f64)> {
+        self.deconv.metrics()
+    }
+
+    fn reset_history(&mut self) {
+        self.seen = 0;
+        self.deconv.reset_history();
+    }
+}
