@@ -117,35 +117,26 @@ fn gt_max(x: f64, y: f64) -> f64 {
 /// Rebuilds the cache of one column by scanning its N entries, without branches on the
 /// values (where the maximum sits is unpredictable): the max over eight lanes
 /// (`maxpd`), then one exact sum over the maximisers of 2^26 + their index, which holds
-/// both their number and, when there is one, where it is.
+/// both their number and, when there is one, where it is. Entries past the last full
+/// eight are read as the column's last eight (lanes already seen add nothing).
 #[cold]
 #[inline(never)]
 fn scan_column(col: &[f64]) -> Top {
     const TAG: f64 = (1u64 << 26) as f64;
-    if col.len() > 8192 {
-        // Sums of indices could reach 2^26: plain scan.
-        return col.iter().enumerate().fold(
-            Top { max: f64::NEG_INFINITY, count: 0, first: 0 },
-            |t, (l, &x)| {
-                if x > t.max {
-                    Top { max: x, count: 1, first: l as u32 }
-                } else if x == t.max {
-                    Top { count: t.count + 1, ..t }
-                } else {
-                    t
-                }
-            },
-        );
+    let n = col.len();
+    let Some(last) = n.checked_sub(8).and_then(|k| <&[f64; 8]>::try_from(&col[k..]).ok()) else {
+        return scan_plain(col);
+    };
+    if n > 8192 {
+        // Sums of indices could reach 2^26.
+        return scan_plain(col);
     }
-    let (chunks, tail) = col.as_chunks::<8>();
-    let mut acc = [f64::NEG_INFINITY; 8];
+    let (chunks, _) = col.as_chunks::<8>();
+    let mut acc = *last;
     for c in chunks {
         for k in 0..8 {
             acc[k] = gt_max(acc[k], c[k]);
         }
-    }
-    for (k, &x) in tail.iter().enumerate() {
-        acc[k] = gt_max(acc[k], x);
     }
     let acc =
         [gt_max(acc[0], acc[4]), gt_max(acc[1], acc[5]), gt_max(acc[2], acc[6]), gt_max(acc[3], acc[7])];
@@ -159,12 +150,29 @@ fn scan_column(col: &[f64]) -> Top {
             tag[k] += 8.0;
         }
     }
-    for (k, &x) in tail.iter().enumerate() {
-        sum[k] += if x == max { tag[k] } else { 0.0 };
+    // The last eight start at n − 8; their lanes below 8 × chunks (seen) count 0.
+    let seen = (8 * chunks.len()) as f64;
+    for k in 0..8 {
+        let l = (n - 8 + k) as f64;
+        let tag = if l >= seen { TAG + l } else { 0.0 };
+        sum[k] += if last[k] == max { tag } else { 0.0 };
     }
     let sum = sum.iter().sum::<f64>() as u64;
     let count = (sum >> 26) as u32;
     Top { max, count, first: if count == 1 { (sum & ((1 << 26) - 1)) as u32 } else { 0 } }
+}
+
+/// [`scan_column`] for columns shorter than eight or longer than 8192 entries.
+fn scan_plain(col: &[f64]) -> Top {
+    col.iter().enumerate().fold(Top { max: f64::NEG_INFINITY, count: 0, first: 0 }, |t, (l, &x)| {
+        if x > t.max {
+            Top { max: x, count: 1, first: l as u32 }
+        } else if x == t.max {
+            Top { count: t.count + 1, ..t }
+        } else {
+            t
+        }
+    })
 }
 
 /// The cache of a block from the caches of its |A| columns.
