@@ -54,23 +54,24 @@ fn learn<L: Learner + ?Sized>(learner: &mut L, w: &World, steps: u64) -> f64 {
 }
 
 /// A fresh learner of `kind` as the runner builds it, then `steps` steps.
-fn run(kind: LearnerKind, steps: u64) -> f64 {
-    let w = world();
+fn run(kind: LearnerKind, w: &World, steps: u64) -> f64 {
     let spec = LearnerSpec { kind, ..LearnerSpec::default() };
     let mut learner = spec.build(w.num_cells(), 4, 1 << 30).unwrap();
-    learn(&mut *learner, &w, steps)
+    learn(&mut *learner, w, steps)
 }
 
 fn bench(c: &mut Criterion) {
+    // The world is parsed once; each iteration builds the learner, environment and
+    // channel afresh (as a run does) and takes STEPS steps.
+    let w = world();
     let mut g = c.benchmark_group("learner-steps-9x9-poisson13");
     g.throughput(Throughput::Elements(STEPS));
     g.sample_size(10);
     for kind in [LearnerKind::Q, LearnerKind::Fixed, LearnerKind::Mmq] {
-        g.bench_function(kind.name(), |b| b.iter(|| run(kind, STEPS)));
+        g.bench_function(kind.name(), |b| b.iter(|| run(kind, &w, STEPS)));
     }
     g.bench_function("channel-only", |b| {
         b.iter(|| {
-            let w = world();
             let mut ch = DelayedReward::new(GridEnv::new(&w), &DelayDist::Poisson(13.0), false);
             ch.reset(1, 2, Start::World).unwrap();
             let mut acc = 0.0;
@@ -86,7 +87,6 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(STEPS));
     g.sample_size(10);
     let p = LearnerSpec::default().params;
-    let w = world();
     g.bench_function("q", |b| b.iter(|| learn(&mut QLearning::new(p, w.num_cells(), 4), &w, STEPS)));
     g.bench_function("mmq", |b| {
         b.iter(|| {
@@ -98,7 +98,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("mmq-reference-9x9");
     g.throughput(Throughput::Elements(10_000));
     g.sample_size(10);
-    g.bench_function("mmq-reference", |b| b.iter(|| run(LearnerKind::MmqReference, 10_000)));
+    g.bench_function("mmq-reference", |b| b.iter(|| run(LearnerKind::MmqReference, &w, 10_000)));
     g.finish();
 }
 
@@ -109,7 +109,7 @@ fn main() {
         let mut it = v.split_whitespace();
         let kind = LearnerKind::parse(it.next().unwrap_or("mmq")).unwrap();
         let steps: u64 = it.next().and_then(|x| x.parse().ok()).unwrap_or(STEPS);
-        println!("{} {steps} steps: earned {}", kind.name(), run(kind, steps));
+        println!("{} {steps} steps: earned {}", kind.name(), run(kind, &world(), steps));
         return;
     }
     benches();
