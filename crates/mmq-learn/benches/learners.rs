@@ -11,10 +11,10 @@
 //!   learner type (no virtual calls), to show what dynamic dispatch costs.
 //! - `mmq-reference-9x9/mmq-reference`: the plain transcription of Algorithm 1.
 //!
-//! With `LEARNERS_STEPS="NAME STEPS"` set (e.g. `"mmq 60000"`) the binary instead runs
-//! that learner once for that many steps, as `learner-steps-9x9-poisson13/NAME` does, and
-//! exits: for instruction counts under `valgrind --tool=callgrind` (see
-//! docs/performance.md).
+//! With `LEARNERS_STEPS="NAME STEPS"` set (e.g. `"mmq 60000"`; NAME a learner, or
+//! `static-q` / `static-mmq`) the binary instead runs that loop once for that many
+//! steps and exits: for instruction counts under `valgrind --tool=callgrind` and CPU
+//! time under `perf stat` (see docs/performance.md).
 
 use criterion::{Criterion, Throughput, criterion_group};
 use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
@@ -107,9 +107,19 @@ criterion_group!(benches, bench);
 fn main() {
     if let Ok(v) = std::env::var("LEARNERS_STEPS") {
         let mut it = v.split_whitespace();
-        let kind = LearnerKind::parse(it.next().unwrap_or("mmq")).unwrap();
+        let name = it.next().unwrap_or("mmq");
         let steps: u64 = it.next().and_then(|x| x.parse().ok()).unwrap_or(STEPS);
-        println!("{} {steps} steps: earned {}", kind.name(), run(kind, &world(), steps));
+        let (w, p) = (world(), LearnerSpec::default().params);
+        let earned = match name {
+            "static-q" => learn(&mut QLearning::new(p, w.num_cells(), 4), &w, steps),
+            "static-mmq" => learn(
+                &mut MultipleModelQ::new(p, LearnerSpec::default().max_delay, w.num_cells(), 4),
+                &w,
+                steps,
+            ),
+            _ => run(LearnerKind::parse(name).unwrap(), &w, steps),
+        };
+        println!("{name} {steps} steps: earned {earned}");
         return;
     }
     benches();
