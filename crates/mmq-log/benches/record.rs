@@ -1,7 +1,13 @@
-//! Recording cost per step: a grid run (paper 9×9, Poisson(5) delays, with the ledger)
-//! and a robot-like run (60 pose samples per step thinned to 10 Hz), recorded to a
-//! temporary file. The environment's own cost is excluded: the steps are precomputed.
-//! Bytes per step are printed before the timings.
+//! Recording cost.
+//!
+//! - `record/grid`, `record/robot-like`: the recorder alone, per step: a grid run (paper
+//!   9×9, Poisson(5) delays, with the ledger) and a robot-like run (60 pose samples per
+//!   step thinned to 10 Hz), recorded to a temporary file; the steps are precomputed.
+//! - `robot/bare`, `robot/recorded`: a real robot run (rapier2d, paper 9×9, Poisson(13)
+//!   delays, seeded pseudo-random primitives) without and with recording at the default
+//!   pose rate, per primitive: the overhead as the runner sees it.
+//!
+//! Bytes per step (per primitive) and the robot overhead are printed before the timings.
 
 use std::hint::black_box;
 
@@ -13,6 +19,7 @@ use mmq_core::{
 };
 use mmq_grid::GridEnv;
 use mmq_log::{McapRecorder, RecorderConfig};
+use mmq_robot::{RobotConfig, RobotEnv};
 
 const STEPS: u64 = 10_000;
 
@@ -166,12 +173,97 @@ fn bench(c: &mut Criterion) {
             run.kind,
             bytes as f64 / STEPS as f64
         );
-        g.bench_function(run.kind, |b| b.iter(|| black_box(record(&run, &path))));
+        let name = if run.kind == "robot" { "robot-like" } else { run.kind };
+        g.bench_function(name, |b| b.iter(|| black_box(record(&run, &path))));
     }
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// Primitives of one real robot run.
+const PRIMITIVES: u64 = 1000;
+
+/// Runs `PRIMITIVES` robot primitives, recorded to `path` when given (as the runner does:
+/// the ledger on, the trace at the recorder's period). Returns the file size.
+fn robot(world: &World, path: Option<&std::path::Path>) -> u64 {
+    let env = RobotEnv::new(world, RobotConfig::from_world(world).unwrap()).unwrap();
+    let mut ch = DelayedReward::new(env, &DelayDist::Poisson(13.0), true);
+    let mut rec = path.map(|p| McapRecorder::create(RecorderConfig::new(p)).unwrap());
+    if let Some(r) = &rec {
+        ch.env_mut().set_trace(r.trace_period_s());
+    }
+    let mut s = ch.reset(1, 2, Start::World).unwrap();
+    let names = ch.env().action_names();
+    let facts = mmq_robot::features();
+    let info = RunInfo {
+        world,
+        seed: 1,
+        learner: "bench",
+        action_names: &names,
+        config_toml: "",
+        env_kind: "robot",
+        facts: &facts,
+    };
+    if let Some(r) = rec.as_mut() {
+        r.on_start(&info, s, ch.env().sim_time_s());
+    }
+    let mut trace = StepTrace::default();
+    for t in 0..PRIMITIVES {
+        let a = action(t) % ch.env().num_actions();
+        let st = ch.step(a).unwrap();
+        if let Some(r) = rec.as_mut() {
+            ch.env_mut().take_trace(&mut trace);
+            r.on_step(&StepRecord {
+                t,
+                state: s,
+                action: a,
+                model: Some(3),
+                explored: false,
+                next_state: st.step.state,
+                emitted: st.step.reward,
+                event: st.step.event,
+                delay: st.delay,
+                delivered: st.delivered,
+                delivered_ids: ch.delivered_ids(),
+                ledger: ch.ledger(),
+                sim_time_s: ch.env().sim_time_s(),
+                trace: &trace,
+            });
+        }
+        s = st.step.state;
+    }
+    black_box(s);
+    rec.map_or(0, |mut r| r.finish(PRIMITIVES, true).unwrap().bytes)
+}
+
+fn bench_robot(c: &mut Criterion) {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("robot.mcap");
+    let world = world("paper-9x9");
+    // A first look without criterion: mean of a few runs each way.
+    let time = |p: Option<&std::path::Path>| {
+        let start = std::time::Instant::now();
+        for _ in 0..3 {
+            robot(&world, p);
+        }
+        start.elapsed().as_secs_f64() / 3.0 / PRIMITIVES as f64 * 1e6
+    };
+    let bytes = robot(&world, Some(&path));
+    let (bare, recorded) = (time(None), time(Some(&path)));
+    println!(
+        "robot: {bare:.1} µs per primitive bare, {recorded:.1} recorded (+{:.0} %), {:.0} bytes per primitive \
+         ({bytes} bytes for {PRIMITIVES} primitives)",
+        100.0 * (recorded - bare) / bare,
+        bytes as f64 / PRIMITIVES as f64
+    );
+    let mut g = c.benchmark_group("robot");
+    g.throughput(Throughput::Elements(PRIMITIVES));
+    g.sample_size(10);
+    g.bench_function("bare", |b| b.iter(|| black_box(robot(&world, None))));
+    g.bench_function("recorded", |b| b.iter(|| black_box(robot(&world, Some(&path)))));
+    g.finish();
+}
+
+criterion_group!(benches, bench, bench_robot);
 
 fn main() {
     benches();

@@ -3,7 +3,8 @@
 //! [`render()`] of the trajectory, and [`compare()`] for checking that two runs match.
 //!
 //! Logs are MCAP files with JSON messages described by `jsonschema` schemas, in zstd
-//! chunks. Geometry uses Foxglove's well-known schemas so the Foxglove app draws it;
+//! chunks, written by the crate's own chunk writer (one zstd call per 1 MiB chunk; see
+//! `docs/logs.md`, "Cost") and read with the `mcap` crate. Geometry uses Foxglove's well-known schemas so the Foxglove app draws it;
 //! learning events use mmq's own (`mmq.*`). Topics, units and the time base are
 //! documented in `docs/logs.md` and in [`recorder`].
 //!
@@ -12,6 +13,7 @@
 
 pub mod compare;
 pub mod error;
+mod mcap_out;
 pub mod messages;
 pub mod reader;
 pub mod recorder;

@@ -15,7 +15,7 @@ use serde::de::DeserializeOwned;
 
 use crate::error::LogError;
 use crate::messages::{self as m, topics};
-use crate::recorder::{FNV_OFFSET, fnv_message};
+use crate::recorder::{DIGEST_START, digest_message};
 
 /// A message with its `log_time` (simulated ns since the start of the run).
 #[derive(Clone, Debug, PartialEq)]
@@ -56,7 +56,7 @@ pub struct TopicInfo {
     pub first_ns: u64,
     /// See `first_ns`.
     pub last_ns: u64,
-    /// FNV-1a 64 digest of the messages, as [`crate::RecordStats`] computes it.
+    /// Digest of the messages, as [`crate::RecordStats`] computes it.
     pub digest: u64,
     /// Messages whose JSON did not decode as the topic's message type.
     pub undecodable: u64,
@@ -324,7 +324,7 @@ impl State {
             count: 0,
             first_ns: 0,
             last_ns: 0,
-            digest: FNV_OFFSET,
+            digest: DIGEST_START,
             undecodable: 0,
         });
         self.channels.insert(c.id, c.topic);
@@ -338,7 +338,7 @@ impl State {
         }
         info.count += 1;
         info.last_ns = h.log_time;
-        info.digest = fnv_message(info.digest, h.log_time, data);
+        info.digest = digest_message(info.digest, h.log_time, data);
         out.messages += 1;
         let t = h.log_time;
         fn push<T: DeserializeOwned>(v: &mut Vec<Stamped<T>>, t: u64, data: &[u8]) -> bool {

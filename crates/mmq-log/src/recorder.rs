@@ -28,11 +28,11 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use base64::Engine;
-use mcap::records::{MessageHeader, Metadata};
 use mmq_core::{Event, Move, Observer, RunInfo, State, StepRecord, World};
 use serde::Serialize;
 
 use crate::error::LogError;
+use crate::mcap_out::{ChunkOptions, McapOut};
 use crate::messages::{self as m, CHANNELS, LOG_CHANNEL};
 
 /// Which steps are recorded: the first `first` steps and the last `last` steps of a run
@@ -77,6 +77,9 @@ pub struct RecorderConfig {
     pub heatmaps: bool,
     /// Write short human-readable notes to `/foxglove/log` (start, end, problems).
     pub notes: bool,
+    /// zstd level of the chunks (default 1, [`Self::DEFAULT_COMPRESSION_LEVEL`]); negative
+    /// levels compress faster into larger files, higher ones slower into smaller files.
+    pub compression_level: i32,
 }
 
 impl RecorderConfig {
@@ -84,6 +87,9 @@ impl RecorderConfig {
     pub const DEFAULT_POSE_RATE_HZ: f64 = 10.0;
     /// Default grid step period, ns.
     pub const DEFAULT_STEP_PERIOD_NS: u64 = 100_000_000;
+    /// Default zstd level: on pose-heavy robot logs level 1 is both faster and smaller
+    /// than zstd's own default (3); see `docs/logs.md`, "Cost".
+    pub const DEFAULT_COMPRESSION_LEVEL: i32 = 1;
 
     /// Records everything to `path` with the defaults.
     pub fn new(path: impl Into<PathBuf>) -> Self {
@@ -96,6 +102,7 @@ impl RecorderConfig {
             step_period_ns: None,
             heatmaps: true,
             notes: true,
+            compression_level: Self::DEFAULT_COMPRESSION_LEVEL,
         }
     }
 
@@ -116,8 +123,8 @@ impl RecorderConfig {
 pub struct TopicStats {
     /// How many.
     pub count: u64,
-    /// FNV-1a 64 digest of every message's `log_time` (little-endian) and bytes, in
-    /// order; [`crate::read_log`] computes the same, so equal digests mean the messages
+    /// Digest of every message's `log_time` and bytes (CRC-32 and length), in order;
+    /// [`crate::read_log`] computes the same, so equal digests mean the messages
     /// were read back byte for byte.
     pub digest: u64,
 }
@@ -144,17 +151,22 @@ impl RecordStats {
     }
 }
 
-/// The FNV-1a 64 offset basis (digest of nothing).
-pub(crate) const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+/// The digest of no message.
+pub(crate) const DIGEST_START: u64 = 0xcbf2_9ce4_8422_2325;
 
-/// Folds a message into a running FNV-1a 64 digest.
-pub(crate) fn fnv_message(mut h: u64, log_time: u64, data: &[u8]) -> u64 {
-    for &b in log_time.to_le_bytes().iter().chain(data) {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    h
+/// Folds a message into a running digest: its log time and the CRC-32 and length of its
+/// bytes, mixed into 64 bits. (A CRC runs at several bytes per cycle; the byte-at-a-time
+/// FNV-1a used before cost as much as writing the message.)
+pub(crate) fn digest_message(h: u64, log_time: u64, data: &[u8]) -> u64 {
+    const K: u64 = 0x9e37_79b9_7f4a_7c15;
+    let m = u64::from(crc32fast::hash(data)) | (data.len() as u64) << 32;
+    let x = (h ^ log_time).wrapping_mul(K).rotate_left(29) ^ m;
+    let x = x.wrapping_mul(K);
+    x ^ (x >> 32)
 }
+
+/// Uncompressed size at which a chunk is closed (as the `mcap` crate's default).
+const CHUNK_SIZE: usize = 1 << 20;
 
 /// Channel slots: indices into [`CHANNELS`], then the log channel.
 #[derive(Clone, Copy, Debug)]
@@ -212,13 +224,14 @@ struct Run {
 /// [`McapRecorder::take_error`]) and recording stops there.
 pub struct McapRecorder {
     config: RecorderConfig,
-    writer: Option<mcap::Writer<BufWriter<File>>>,
+    writer: Option<McapOut<BufWriter<File>>>,
     channel_ids: [u16; NCH],
     sequence: [u32; NCH],
     digests: [TopicStats; NCH],
     stats: RecordStats,
     error: Option<LogError>,
     buf: Vec<u8>,
+    pose: PoseJson,
     run: Option<Run>,
     /// Simulated time at the start of the current step, s (robot).
     step_start_s: f64,
@@ -278,14 +291,19 @@ impl McapRecorder {
             action: "create the log",
             source,
         })?;
-        let mcap_err = |action, source| LogError::Mcap { path: path.clone(), action, source };
-        let mut writer = mcap::WriteOptions::new()
-            .compression(Some(mcap::Compression::Zstd))
-            .compression_threads(0)
-            .profile("")
-            .library(format!("mmq-log/{} {}", env!("CARGO_PKG_VERSION"), mcap::LIBRARY_IDENTIFIER))
-            .create(BufWriter::with_capacity(1 << 16, file))
-            .map_err(|e| mcap_err("write the MCAP header", e))?;
+        let mcap_err = |action, e: std::io::Error| LogError::Mcap {
+            path: path.clone(),
+            action,
+            source: mcap::McapError::Io(e),
+        };
+        let library =
+            format!("mmq-log/{} (MCAP records as {})", env!("CARGO_PKG_VERSION"), mcap::LIBRARY_IDENTIFIER);
+        let mut writer = McapOut::new(
+            BufWriter::with_capacity(1 << 16, file),
+            &library,
+            ChunkOptions { chunk_size: CHUNK_SIZE, level: config.compression_level },
+        )
+        .map_err(|e| mcap_err("write the MCAP header", e))?;
         let mut channel_ids = [0u16; NCH];
         let mut stats = RecordStats::default();
         for (i, id) in channel_ids.iter_mut().enumerate() {
@@ -296,20 +314,19 @@ impl McapRecorder {
             let sid = writer
                 .add_schema(schema, "jsonschema", text.as_bytes())
                 .map_err(|e| mcap_err("register a schema", e))?;
-            *id = writer
-                .add_channel(sid, topic, "json", &BTreeMap::new())
-                .map_err(|e| mcap_err("register a channel", e))?;
-            stats.topics.insert(topic.to_string(), TopicStats { count: 0, digest: FNV_OFFSET });
+            *id = writer.add_channel(sid, topic, "json").map_err(|e| mcap_err("register a channel", e))?;
+            stats.topics.insert(topic.to_string(), TopicStats { count: 0, digest: DIGEST_START });
         }
         Ok(Self {
             config,
             writer: Some(writer),
             channel_ids,
             sequence: [0; NCH],
-            digests: [TopicStats { count: 0, digest: FNV_OFFSET }; NCH],
+            digests: [TopicStats { count: 0, digest: DIGEST_START }; NCH],
             stats,
             error: None,
             buf: Vec::with_capacity(4096),
+            pose: PoseJson::default(),
             run: None,
             step_start_s: 0.0,
             time_offset_s: 0.0,
@@ -346,11 +363,15 @@ impl McapRecorder {
         self.error.take()
     }
 
-    fn fail(&mut self, action: &'static str, source: mcap::McapError) {
+    fn fail(&mut self, action: &'static str, source: std::io::Error) {
         if self.error.is_none() {
-            self.error = Some(LogError::Mcap { path: self.config.path.clone(), action, source });
+            self.error = Some(LogError::Mcap {
+                path: self.config.path.clone(),
+                action,
+                source: mcap::McapError::Io(source),
+            });
         }
-        // A failed writer refuses further writes (its own drop tries to finish it).
+        // A failed writer refuses further writes; what it wrote before stays readable.
         self.writer = None;
     }
 
@@ -358,20 +379,14 @@ impl McapRecorder {
     fn write_buf(&mut self, ch: Ch, log_time: u64) {
         let Some(w) = self.writer.as_mut() else { return };
         let i = ch as usize;
-        let header = MessageHeader {
-            channel_id: self.channel_ids[i],
-            sequence: self.sequence[i],
-            log_time,
-            publish_time: log_time,
-        };
-        if let Err(e) = w.write_to_known_channel(&header, &self.buf) {
+        if let Err(e) = w.message(self.channel_ids[i], self.sequence[i], log_time, &self.buf) {
             self.fail("write a message", e);
             return;
         }
         self.sequence[i] = self.sequence[i].wrapping_add(1);
         let d = &mut self.digests[i];
         d.count += 1;
-        d.digest = fnv_message(d.digest, log_time, &self.buf);
+        d.digest = digest_message(d.digest, log_time, &self.buf);
     }
 
     fn write<T: Serialize>(&mut self, ch: Ch, log_time: u64, msg: &T) {
@@ -404,19 +419,20 @@ impl McapRecorder {
         }
     }
 
+    /// `/tf` and `/robot/pose` at one pose. The JSON is written by hand (the numbers
+    /// formatted once for both messages), byte for byte as serde_json writes
+    /// [`m::FrameTransform`] and [`m::PoseInFrame`] (test `pose_json_is_serde_json_s`).
     fn write_pose(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
-        let timestamp = m::Time::from_ns(log_time);
-        let tf = m::FrameTransform {
-            timestamp,
-            parent_frame_id: "world".into(),
-            child_frame_id: "robot".into(),
-            translation: m::Vector3 { x, y, z: 0.0 },
-            rotation: m::Quaternion::yaw(theta),
-        };
-        self.write(Ch::Tf, log_time, &tf);
-        let pose =
-            m::PoseInFrame { timestamp, frame_id: "world".into(), pose: m::Pose::planar(x, y, 0.0, theta) };
-        self.write(Ch::Pose, log_time, &pose);
+        if self.writer.is_none() {
+            return;
+        }
+        self.pose.set(log_time, x, y, theta);
+        self.buf.clear();
+        self.pose.frame_transform(&mut self.buf);
+        self.write_buf(Ch::Tf, log_time);
+        self.buf.clear();
+        self.pose.pose_in_frame(&mut self.buf);
+        self.write_buf(Ch::Pose, log_time);
     }
 
     fn write_cell_pose(&mut self, log_time: u64, state: State) {
@@ -497,13 +513,13 @@ impl McapRecorder {
             .map(|(k, v)| (k.to_string(), v))
             .collect();
             let path = self.config.path.clone();
-            let mcap_err = |action, source| LogError::Mcap { path: path.clone(), action, source };
+            let mcap_err =
+                |action, e| LogError::Mcap { path: path.clone(), action, source: mcap::McapError::Io(e) };
             let result = w
-                .write_metadata(&Metadata { name: "end".into(), metadata: end })
+                .metadata("end", &end)
                 .map_err(|e| mcap_err("write the end record", e))
-                .and_then(|()| w.finish().map(drop).map_err(|e| mcap_err("finish the log", e)))
-                .and_then(|()| {
-                    let mut inner = w.into_inner();
+                .and_then(|()| w.finish().map_err(|e| mcap_err("finish the log", e)))
+                .and_then(|mut inner| {
                     inner.flush().map_err(|source| LogError::Io {
                         path: path.clone(),
                         action: "write the log",
@@ -726,6 +742,10 @@ impl Observer for McapRecorder {
                 }),
             ),
             ("flush_every_steps", config.flush_every_steps.to_string()),
+            (
+                "compression",
+                format!("zstd level {}, chunks of {} KiB", config.compression_level, CHUNK_SIZE >> 10),
+            ),
             ("robot_radius_m", radius.to_string()),
         ]
         .into_iter()
@@ -733,25 +753,11 @@ impl Observer for McapRecorder {
         .collect();
         if let Some(w) = self.writer.as_mut() {
             let r = w
-                .write_metadata(&Metadata { name: "run".into(), metadata: run })
-                .and_then(|()| w.write_metadata(&Metadata { name: "recorder".into(), metadata: recorder }))
+                .metadata("run", &run)
+                .and_then(|()| w.metadata("recorder", &recorder))
+                .and_then(|()| w.attach("world.toml", "application/toml", start_ns, world.source.as_bytes()))
                 .and_then(|()| {
-                    w.attach(&mcap::Attachment {
-                        log_time: start_ns,
-                        create_time: start_ns,
-                        name: "world.toml".into(),
-                        media_type: "application/toml".into(),
-                        data: world.source.as_bytes().into(),
-                    })
-                })
-                .and_then(|()| {
-                    w.attach(&mcap::Attachment {
-                        log_time: start_ns,
-                        create_time: start_ns,
-                        name: "config.toml".into(),
-                        media_type: "application/toml".into(),
-                        data: info.config_toml.as_bytes().into(),
-                    })
+                    w.attach("config.toml", "application/toml", start_ns, info.config_toml.as_bytes())
                 });
             if let Err(e) = r {
                 self.fail("write the run metadata", e);
@@ -963,6 +969,98 @@ impl McapRecorder {
     }
 }
 
+/// The numbers of one pose, formatted once as serde_json formats them, for both pose
+/// messages; reused from pose to pose (no allocation).
+#[derive(Default)]
+struct PoseJson {
+    /// `"timestamp":{"sec":…,"nsec":…}`, then `{"x":…,"y":…,"z":0.0}` (position), then
+    /// `{"x":0.0,"y":0.0,"z":…,"w":…}` (orientation).
+    bytes: Vec<u8>,
+    /// Where the position starts.
+    position: usize,
+    /// Where the orientation starts.
+    orientation: usize,
+}
+
+/// Appends `v` as serde_json writes an `f64` (shortest round-trip form; `null` when not
+/// finite).
+fn json_f64(out: &mut Vec<u8>, v: f64) {
+    if v.to_bits() == 0 {
+        out.extend_from_slice(b"0.0");
+    } else if v.is_finite() {
+        out.extend_from_slice(zmij::Buffer::new().format_finite(v).as_bytes());
+    } else {
+        out.extend_from_slice(b"null");
+    }
+}
+
+impl PoseJson {
+    fn set(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
+        let t = m::Time::from_ns(log_time);
+        let q = m::Quaternion::yaw(theta);
+        let mut ib = itoa::Buffer::new();
+        let b = &mut self.bytes;
+        b.clear();
+        b.extend_from_slice(b"\"timestamp\":{\"sec\":");
+        b.extend_from_slice(ib.format(t.sec).as_bytes());
+        b.extend_from_slice(b",\"nsec\":");
+        b.extend_from_slice(ib.format(t.nsec).as_bytes());
+        b.push(b'}');
+        self.position = b.len();
+        b.extend_from_slice(b"{\"x\":");
+        json_f64(b, x);
+        b.extend_from_slice(b",\"y\":");
+        json_f64(b, y);
+        b.extend_from_slice(b",\"z\":0.0}");
+        self.orientation = b.len();
+        b.extend_from_slice(b"{\"x\":");
+        json_f64(b, q.x);
+        b.extend_from_slice(b",\"y\":");
+        json_f64(b, q.y);
+        b.extend_from_slice(b",\"z\":");
+        json_f64(b, q.z);
+        b.extend_from_slice(b",\"w\":");
+        json_f64(b, q.w);
+        b.push(b'}');
+    }
+
+    fn time(&self) -> &[u8] {
+        &self.bytes[..self.position]
+    }
+
+    fn position(&self) -> &[u8] {
+        &self.bytes[self.position..self.orientation]
+    }
+
+    fn orientation(&self) -> &[u8] {
+        &self.bytes[self.orientation..]
+    }
+
+    /// `foxglove.FrameTransform`, world → robot.
+    fn frame_transform(&self, out: &mut Vec<u8>) {
+        out.push(b'{');
+        out.extend_from_slice(self.time());
+        out.extend_from_slice(
+            b",\"parent_frame_id\":\"world\",\"child_frame_id\":\"robot\",\"translation\":",
+        );
+        out.extend_from_slice(self.position());
+        out.extend_from_slice(b",\"rotation\":");
+        out.extend_from_slice(self.orientation());
+        out.push(b'}');
+    }
+
+    /// `foxglove.PoseInFrame` in frame world.
+    fn pose_in_frame(&self, out: &mut Vec<u8>) {
+        out.push(b'{');
+        out.extend_from_slice(self.time());
+        out.extend_from_slice(b",\"frame_id\":\"world\",\"pose\":{\"position\":");
+        out.extend_from_slice(self.position());
+        out.extend_from_slice(b",\"orientation\":");
+        out.extend_from_slice(self.orientation());
+        out.extend_from_slice(b"}}");
+    }
+}
+
 /// A `foxglove.Grid` of one FLOAT32 field per cell, rows from the bottom of the map
 /// (y = 0) up, origin at the arena's bottom-left corner.
 pub(crate) fn heatmap(world: &World, log_time: u64, field: &str, per_cell: &[f64]) -> m::Grid {
@@ -1015,6 +1113,54 @@ mod tests {
         assert_eq!(c.trace_period_s(), 0.1);
         c.pose_rate_hz = 0.0;
         assert_eq!(c.trace_period_s(), RecorderConfig::FULL_TRACE_PERIOD_S);
+    }
+
+    #[test]
+    fn pose_json_is_serde_json_s() {
+        let mut r = 0x1234_5678_9abc_def0u64;
+        let mut next = || {
+            r = mmq_core::seed::splitmix64(r);
+            r
+        };
+        let mut values = vec![0.0, -0.0, 1.0, -1.5, 1e-300, 3.758157253265381, 1e21, f64::NAN, f64::INFINITY];
+        values.extend((0..200).map(|_| f64::from_bits(next() >> 2) % 1e3 - 500.0));
+        values.extend((0..50).map(|_| (next() as f32 / 7.0) as f64));
+        for (i, &v) in values.iter().enumerate() {
+            let (x, y, th) = (v, values[(i * 7 + 3) % values.len()], values[(i * 13 + 1) % values.len()]);
+            let t = [0, 999_999_999, 1_000_000_000, next(), u64::MAX][i % 5];
+            let mut p = PoseJson::default();
+            p.set(t, x, y, th);
+            let ts = m::Time::from_ns(t);
+            let mut got = Vec::new();
+            p.frame_transform(&mut got);
+            let tf = m::FrameTransform {
+                timestamp: ts,
+                parent_frame_id: "world".into(),
+                child_frame_id: "robot".into(),
+                translation: m::Vector3 { x, y, z: 0.0 },
+                rotation: m::Quaternion::yaw(th),
+            };
+            assert_eq!(String::from_utf8(got).unwrap(), serde_json::to_string(&tf).unwrap());
+            let mut got = Vec::new();
+            p.pose_in_frame(&mut got);
+            let pose = m::PoseInFrame {
+                timestamp: ts,
+                frame_id: "world".into(),
+                pose: m::Pose::planar(x, y, 0.0, th),
+            };
+            assert_eq!(String::from_utf8(got).unwrap(), serde_json::to_string(&pose).unwrap());
+        }
+    }
+
+    #[test]
+    fn digests_see_every_byte_time_and_order() {
+        let d = |msgs: &[(u64, &[u8])]| msgs.iter().fold(DIGEST_START, |h, (t, b)| digest_message(h, *t, b));
+        let base = d(&[(1, b"ab"), (2, b"cd")]);
+        assert_ne!(base, d(&[(1, b"ab"), (2, b"ce")]));
+        assert_ne!(base, d(&[(1, b"ab"), (3, b"cd")]));
+        assert_ne!(base, d(&[(2, b"cd"), (1, b"ab")]));
+        assert_ne!(base, d(&[(1, b"ab"), (2, b"cd"), (2, b"")]));
+        assert_eq!(base, d(&[(1, b"ab"), (2, b"cd")]));
     }
 
     #[test]
