@@ -258,7 +258,10 @@ impl MultipleModelQ {
 
     /// The block of s in the reference's order: Q(s, a, λ̂) at λ̂ × |A| + a.
     fn block_values(&self, s: State) -> impl Iterator<Item = f64> + '_ {
-        (0..self.n).flat_map(move |l| (0..self.num_actions).map(move |a| self.q(s, a, l)))
+        let (n, w) = (self.n, self.n * self.num_actions);
+        let block = &self.q[s * w..(s + 1) * w];
+        // Model λ̂ of every action: entries λ̂, λ̂ + N, λ̂ + 2N, ... of the block.
+        (0..n).flat_map(move |l| block[l..].iter().step_by(n).copied())
     }
 
     /// The whole table in the reference's order, [s][λ̂][a] (a copy).
