@@ -62,7 +62,8 @@ impl EnvChoice {
 /// Flags of `mmq paper`.
 #[derive(Debug, Args)]
 pub struct PaperArgs {
-    /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity) or all; comma-separated.
+    /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity), all, or beyond
+    /// (issue 8: every learner, two worlds, many delays; not part of all); comma-separated.
     #[arg(long, default_value = "all")]
     pub fig: String,
     /// Fidelity for Figs. 6–12: grid, robot or both.

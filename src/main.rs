@@ -9,6 +9,7 @@
 //! | 3 | bad input (world file, config, impossible parameter) |
 //! | 130 | interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial |
 
+mod beyond;
 mod cli;
 mod paper;
 mod progress;

@@ -28,6 +28,8 @@ enum Part {
     Fig4,
     Fig6,
     Sensitivity,
+    /// Issue 8's study (`src/beyond.rs`); not part of `all`.
+    Beyond,
 }
 
 fn parts(fig: &str) -> Result<Vec<Part>, Failure> {
@@ -40,9 +42,10 @@ fn parts(fig: &str) -> Result<Vec<Part>, Failure> {
             "4" => v.push(Part::Fig4),
             "6" | "7" | "8" | "9" | "10" | "11" | "12" => v.push(Part::Fig6),
             "sens" | "sensitivity" => v.push(Part::Sensitivity),
+            "beyond" => v.push(Part::Beyond),
             other => {
                 return Err(crate::input_error(format!(
-                    "--fig `{other}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens or all (comma-separated)"
+                    "--fig `{other}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, beyond or all (comma-separated)"
                 )));
             }
         }
@@ -143,6 +146,18 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
             Part::Fig3 if envs.contains(&EnvKind::Grid) => fig3(o, &mut rep, stop, a.quiet)?,
             Part::Fig4 if envs.contains(&EnvKind::Grid) => fig4(o, &mut rep, stop, a.quiet)?,
             Part::Sensitivity if envs.contains(&EnvKind::Grid) => sensitivity(o, &mut rep, stop, a.quiet)?,
+            Part::Beyond => {
+                let mut bo = mmq_lab::beyond::BeyondOptions::new(a.quick);
+                bo.seeds = a.seeds.unwrap_or(bo.seeds);
+                if let Some(s) = a.steps {
+                    bo.steps = s;
+                    bo.window = (s / 60).max(1);
+                }
+                bo.seed = a.seed;
+                let sec = crate::beyond::run(&bo, &a.out, stop, a.quiet)?;
+                rep.md.push_str(&sec.md);
+                rep.files.extend(sec.files);
+            }
             Part::Fig6 => {
                 for &env in &envs {
                     let o = opts_for(env);

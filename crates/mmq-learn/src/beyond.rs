@@ -23,13 +23,17 @@ pub struct BeyondParams {
     /// weaker than this are set to exactly zero, and the others are biased towards zero
     /// by this much.
     pub lasso: f64,
-    /// κ ≥ 0: a reward estimate is kept only when it lies more than κ standard errors
-    /// from zero (a significance threshold added to the lasso).
+    /// κ ≥ 0: a reward estimate is kept only when it lies more than κ·√(2 ln m) standard
+    /// errors from zero, m the number of reward features (κ = 1: the universal threshold
+    /// of Donoho & Johnstone, which keeps false positives rare among hundreds of pairs).
     pub significance: f64,
     /// Fit a reward per state (shared by its actions) besides the reward per pair: the
     /// sparsest explanation then credits a goal state rather than the pairs that enter it.
     pub state_rewards: bool,
-    /// κ_p ≥ 0: a delay keeps its estimated probability only with more than κ_p
+    /// Refine the delay pmf by reweighted least squares on the stored history (each step
+    /// weighted by the inverse variance of its delivery); false: plain least squares.
+    pub pmf_weighted: bool,
+    /// κ_p ≥ 0, in the reweighted fit: a delay keeps its estimated probability only with more than κ_p
     /// standard errors of evidence (0: plain least squares, whose non-negativity turns
     /// noise into spurious mass at every delay).
     pub pmf_significance: f64,
@@ -37,7 +41,7 @@ pub struct BeyondParams {
     /// largest reward; it fades as rewards come in, so that early fits stay broad.
     pub pmf_prior: f64,
     /// Steps between two refits of R̂ and the delay pmf early on (≥ 1); later refits
-    /// come every max(refit_every, t/16) steps.
+    /// come every max(refit_every, t/8) steps.
     pub refit_every: u64,
     /// `deconv-model`: a pair tried fewer times than this keeps its optimistic value q0
     /// (R-max style exploration); 0 plans with every pair's estimate at once.
@@ -57,13 +61,14 @@ impl Default for BeyondParams {
             trace_decay: 0.9,
             reward_prior: 1.0,
             lasso: 0.1,
-            significance: 2.0,
+            significance: 1.0,
             state_rewards: true,
+            pmf_weighted: true,
             pmf_significance: 2.0,
             pmf_prior: 50.0,
             refit_every: 250,
             optimism_visits: 1,
-            replay_lag: 0,
+            replay_lag: 50,
             told_delay: None,
         }
     }
@@ -86,7 +91,7 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
         return bad(
             "significance",
             b.significance.to_string(),
-            "use a number of standard errors ≥ 0, e.g. 2",
+            "use a multiple of the universal threshold ≥ 0, e.g. 1",
         );
     }
     if !(b.pmf_significance.is_finite() && b.pmf_significance >= 0.0) {
@@ -141,6 +146,7 @@ pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
         lasso: b.lasso,
         significance: b.significance,
         state_rewards: b.state_rewards,
+        pmf_weighted: b.pmf_weighted,
         pmf_significance: b.pmf_significance,
         pmf_prior: b.pmf_prior,
         refit_every: b.refit_every,

@@ -40,10 +40,14 @@
 
 use mmq_core::DelayDist;
 
+/// Reweighted passes of the pmf fit per refit.
+const WEIGHTED_PASSES: usize = 1;
 /// Iterations of the projected-gradient solve for p.
 const QP_ITERS: usize = 300;
-/// Coordinate-descent sweeps for R (at most; stops when no estimate moves by 1e-9).
-const CD_SWEEPS: usize = 40;
+/// Coordinate-descent sweeps for R (at most; stops when no estimate moves by 1e-12).
+const CD_SWEEPS: usize = 200;
+/// Steps of history kept for the reweighted pmf fit.
+pub const HISTORY_MAX: usize = 1 << 21;
 /// No pair yet.
 const UNSEEN: u32 = u32::MAX;
 
@@ -59,20 +63,24 @@ pub struct DeconvConfig {
     pub reward_prior: f64,
     /// λ₁ of (D2), reward units.
     pub lasso: f64,
-    /// κ: an estimate is kept only when it is more than κ standard errors from zero
-    /// (the threshold of (D2) grows by κ σ̂ √G(x, x), σ̂ the residual deviation).
+    /// κ: an estimate is kept only when it is more than κ·√(2 ln m) standard errors from
+    /// zero, m the number of reward features (the threshold of (D2) grows by
+    /// κ √(2 ln m) σ̂ √G(x, x), σ̂ the residual deviation; κ = 1 is the universal threshold).
     pub significance: f64,
     /// Reward features per state (shared by its actions) besides those per pair.
     pub state_rewards: bool,
-    /// κ_p: a lag keeps its mass only with more than κ_p standard errors of evidence
-    /// (an L1 penalty κ_p σ̂ √A_kk on p over {p ≥ 0, Σ p ≤ 1}, then renormalised);
-    /// without it the non-negativity turns noise into spurious mass at every lag.
+    /// Refine the pmf by reweighted least squares on the stored history (each step
+    /// weighted by the inverse of its delivery's variance under p̂).
+    pub pmf_weighted: bool,
+    /// κ_p: in the reweighted fit a lag keeps its mass only with more than κ_p standard
+    /// errors of evidence (an L1 penalty κ_p √A_kk over {p ≥ 0, Σ p ≤ 1}, then
+    /// renormalised); without it non-negativity turns noise into mass at every lag.
     pub pmf_significance: f64,
     /// ν: pull ½ ν max_x R̂(x)² ‖p − uniform‖² of the pmf fit towards the uniform pmf,
     /// in visits of the largest reward: it dominates while few rewards were seen and
     /// fades as data come in, so early fits stay broad instead of locking onto a lag.
     pub pmf_prior: f64,
-    /// Steps between two refits early on; later refits come every max(this, t/16) steps.
+    /// Steps between two refits early on; later refits come every max(this, t/8) steps.
     pub refit_every: u64,
     /// A known pmf over 0..=K (then p̂ is not estimated).
     pub told: Option<Vec<f64>>,
@@ -135,6 +143,47 @@ pub fn project_capped_simplex(v: &mut [f64]) {
     }
 }
 
+/// argmin over {p ≥ 0, Σ p ≤ 1} of ½ pᵀAp − cᵀp + ½ ν ‖p − uniform‖² + Σ_k λ_k p_k by
+/// FISTA from `warm`, renormalised to sum to one (`None` when A carries no information).
+pub fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]) -> Option<Vec<f64>> {
+    let k_n = c.len();
+    let mut v = vec![1.0; k_n];
+    let mut lmax = 0.0;
+    for _ in 0..30 {
+        let w: Vec<f64> = (0..k_n).map(|i| (0..k_n).map(|j| a[i * k_n + j] * v[j]).sum()).collect();
+        let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm == 0.0 || !norm.is_finite() {
+            return None;
+        }
+        lmax = norm / v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v = w.iter().map(|x| x / norm).collect();
+    }
+    let uni = 1.0 / k_n as f64;
+    let step = 1.0 / ((lmax + nu) * 1.05);
+    let mut p = warm.to_vec();
+    let mut z = p.clone();
+    let mut theta: f64 = 1.0;
+    let mut next = vec![0.0; k_n];
+    for _ in 0..QP_ITERS {
+        for i in 0..k_n {
+            let row = &a[i * k_n..(i + 1) * k_n];
+            let grad: f64 =
+                row.iter().zip(&z).map(|(x, y)| x * y).sum::<f64>() - c[i] + nu * (z[i] - uni) + lam[i];
+            next[i] = z[i] - step * grad;
+        }
+        project_capped_simplex(&mut next);
+        let theta2 = (1.0 + (1.0 + 4.0 * theta * theta).sqrt()) / 2.0;
+        let mom = (theta - 1.0) / theta2;
+        for i in 0..k_n {
+            z[i] = next[i] + mom * (next[i] - p[i]);
+        }
+        p.copy_from_slice(&next);
+        theta = theta2;
+    }
+    let total: f64 = p.iter().sum();
+    (total > 0.0).then(|| p.iter().map(|x| x / total).collect())
+}
+
 /// One snapshot of the delay estimate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Snapshot {
@@ -174,6 +223,10 @@ pub struct Deconvolver {
     recent: Vec<u32>,
     /// Σ_t r_t².
     sum_r2: f64,
+    /// Compact pair index and delivered reward of every step of the current run (for
+    /// the reweighted pmf fit; at most [`HISTORY_MAX`] steps, the oldest dropped).
+    hist_x: Vec<u32>,
+    hist_r: Vec<f64>,
     /// Residual sum of squares of the last fit of R (None before the first).
     rss: Option<f64>,
     /// Steps observed.
@@ -217,6 +270,8 @@ impl Deconvolver {
             b: vec![0.0; (k + 1) * cap],
             recent: vec![UNSEEN; 2 * (k + 1)],
             sum_r2: 0.0,
+            hist_x: Vec::new(),
+            hist_r: Vec::new(),
             rss: None,
             t: 0,
             start: 0,
@@ -312,6 +367,14 @@ impl Deconvolver {
         let cap = self.cap;
         self.recent[(self.t % (2 * k_n) as u64) as usize] = i as u32;
         self.sum_r2 += reward * reward;
+        if self.cfg.pmf_weighted && self.cfg.told.is_none() {
+            if self.hist_x.len() == HISTORY_MAX {
+                self.hist_x.drain(..HISTORY_MAX / 2);
+                self.hist_r.drain(..HISTORY_MAX / 2);
+            }
+            self.hist_x.push(i as u32);
+            self.hist_r.push(reward);
+        }
         let kmax = (self.cfg.max_delay as u64).min(self.t - self.start) as usize;
         for k in 0..=kmax {
             let e = self.past(self.t - k as u64);
@@ -322,7 +385,7 @@ impl Deconvolver {
         let mut refitted = false;
         if self.t >= self.next_refit {
             self.refit();
-            self.next_refit = self.t + self.cfg.refit_every.max(self.t / 16);
+            self.next_refit = self.t + self.cfg.refit_every.max(self.t / 8);
             refitted = true;
         }
         if self.t.is_multiple_of(SNAPSHOT_EVERY) {
@@ -405,7 +468,10 @@ impl Deconvolver {
         let ridge = self.cfg.reward_prior * a[0];
         // σ̂ from the previous fit (Σ r² before the first: an upper bound).
         let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
-        let kappa = self.cfg.significance * sigma;
+        // κ × the universal threshold √(2 ln m) of m features (Donoho & Johnstone): with
+        // hundreds of pairs a plain 2σ test would pass several spurious rewards per fit.
+        let m = (self.pairs.len() + self.pairs.len() / self.num_actions.max(1)).max(2) as f64;
+        let kappa = self.cfg.significance * (2.0 * m.ln()).sqrt() * sigma;
         let lasso = self.cfg.lasso;
         let soft = |z: f64, info: f64| {
             let thr = lasso * info + kappa * info.sqrt();
@@ -485,7 +551,7 @@ impl Deconvolver {
                     }
                 }
             }
-            if moved < 1e-9 {
+            if moved < 1e-12 {
                 break;
             }
         }
@@ -539,57 +605,82 @@ impl Deconvolver {
                 e[j * k_n + m] = acc;
             }
         }
-        let amat = |i: usize, j: usize| {
-            let d = i.abs_diff(j);
-            q[d] - e[d * k_n + i.min(j)]
-        };
-        let mut v = vec![1.0; k_n];
-        let mut lmax = 0.0;
-        for _ in 0..30 {
-            let w: Vec<f64> = (0..k_n).map(|i| (0..k_n).map(|j| amat(i, j) * v[j]).sum()).collect();
-            let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if norm == 0.0 || !norm.is_finite() {
-                return;
+        let mut amat = vec![0.0; k_n * k_n];
+        for i in 0..k_n {
+            for j in 0..k_n {
+                let d = i.abs_diff(j);
+                amat[i * k_n + j] = q[d] - e[d * k_n + i.min(j)];
             }
-            lmax = norm / v.iter().map(|x| x * x).sum::<f64>().sqrt();
-            v = w.iter().map(|x| x / norm).collect();
         }
-        // Significance penalty on the mass of each lag (σ̂ as in the reward fit).
-        let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
-        let lam = self.cfg.pmf_significance * sigma * q[0].max(0.0).sqrt();
         let rmax = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let nu = self.cfg.pmf_prior * rmax * rmax;
-        let uni = 1.0 / k_n as f64;
-        let step = 1.0 / ((lmax + nu) * 1.05);
-        let mut p = self.pmf.clone();
-        let mut z = p.clone();
-        let mut theta: f64 = 1.0;
-        let mut next = vec![0.0; k_n];
-        for _ in 0..QP_ITERS {
-            for i in 0..k_n {
-                let grad: f64 =
-                    (0..k_n).map(|j| amat(i, j) * z[j]).sum::<f64>() - cvec[i] + nu * (z[i] - uni) + lam;
-                next[i] = z[i] - step * grad;
+        let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &self.pmf) else { return };
+        if self.cfg.pmf_weighted {
+            // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
+            // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
+            let trace_u: f64 = (0..k_n).map(|i| amat[i * k_n + i]).sum();
+            for _ in 0..WEIGHTED_PASSES {
+                let (aw, cw) = self.weighted_stats(&r, &p, rmax);
+                let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
+                if trace_w <= 0.0 {
+                    break;
+                }
+                let nu_w = nu * trace_w / trace_u.max(f64::MIN_POSITIVE);
+                let lam: Vec<f64> =
+                    (0..k_n).map(|i| self.cfg.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
+                match solve_pmf(&aw, &cw, nu_w, &lam, &p) {
+                    Some(next) => p = next,
+                    None => break,
+                }
             }
-            project_capped_simplex(&mut next);
-            let theta2 = (1.0 + (1.0 + 4.0 * theta * theta).sqrt()) / 2.0;
-            let mom = (theta - 1.0) / theta2;
-            for i in 0..k_n {
-                z[i] = next[i] + mom * (next[i] - p[i]);
+        }
+        self.pmf = p;
+    }
+
+    /// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over the stored history, ỹ_t(k) = y_{t−k},
+    /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀).
+    fn weighted_stats(&self, r: &[f64], p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
+        let k_n = self.cfg.max_delay + 1;
+        let delta = 0.25 / k_n as f64;
+        let v0 = 0.01 * rmax * rmax;
+        let mut a = vec![0.0; k_n * k_n];
+        let mut c = vec![0.0; k_n];
+        let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
+        let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
+        for (t, (&i, &rt)) in self.hist_x.iter().zip(&self.hist_r).enumerate() {
+            let y = r[i as usize];
+            if y != 0.0 {
+                window.push_back((t, y));
             }
-            p.copy_from_slice(&next);
-            theta = theta2;
+            while window.front().is_some_and(|&(u, _)| u + k_n <= t) {
+                window.pop_front();
+            }
+            if window.is_empty() {
+                continue;
+            }
+            live.clear();
+            let mut v = v0;
+            for &(u, yu) in &window {
+                let k = t - u;
+                v += (p[k] * (1.0 - p[k]) + delta) * yu * yu;
+                live.push((k, yu));
+            }
+            let w = 1.0 / v;
+            for &(k1, y1) in &live {
+                c[k1] += w * rt * y1;
+                for &(k2, y2) in &live {
+                    a[k1 * k_n + k2] += w * y1 * y2;
+                }
+            }
         }
-        let total: f64 = p.iter().sum();
-        if total > 0.0 {
-            p.iter_mut().for_each(|x| *x /= total);
-            self.pmf = p;
-        }
+        (a, c)
     }
 
     /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
     pub fn reset_history(&mut self) {
         self.start = self.t;
+        self.hist_x.clear();
+        self.hist_r.clear();
     }
 
     /// Learner metrics: the delay estimate now and at every snapshot, and p̂ itself.
@@ -625,6 +716,7 @@ mod tests {
             lasso: 0.0,
             significance: 0.0,
             state_rewards: false,
+            pmf_weighted: false,
             pmf_significance: 0.0,
             pmf_prior: 0.0,
             refit_every: 1_000_000,

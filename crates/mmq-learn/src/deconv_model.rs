@@ -155,3 +155,50 @@ impl Learner for DeconvModel {
         self.deconv.reset_history();
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deconv_q::tests::tiny_config;
+
+    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
+        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
+    }
+
+    /// The trace of the deconv-q test (R̂ = (4, 2) after t = 3), planned by (M1) with one
+    /// Gauss–Seidel sweep per step in state order; γ = 0.5, q0 = 0.
+    #[test]
+    fn value_iteration_on_counted_model_by_hand() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
+        let mut l = DeconvModel::new(p, tiny_config(), 1, 2, 1);
+        let trace = [(0, 1, 2.0), (1, 0, 3.0), (0, 1, 3.0)];
+        for (t, &(s, s2, r)) in trace.iter().enumerate() {
+            l.observe(&exp(t as u64, s, 0, s2, r));
+        }
+        assert_eq!((l.q(0, 0), l.q(1, 0)), (0.0, 0.0));
+        // t = 3 refits (R̂ = (4, 2)), then sweeps: Q(0) = 4 + ½ V(1) = 4 + ½·0 = 4,
+        // then Q(1) = 2 + ½ V(0) = 2 + 2 = 4.
+        l.observe(&exp(3, 1, 0, 0, 3.0));
+        assert!((l.q(0, 0) - 4.0).abs() < 1e-9 && (l.q(1, 0) - 4.0).abs() < 1e-9);
+        // t = 4: Q(0) = 4 + ½·4 = 6, Q(1) = 2 + ½·6 = 5 (fixed point 20/3, 16/3).
+        l.observe(&exp(4, 0, 0, 1, 3.0));
+        assert!((l.q(0, 0) - 6.0).abs() < 1e-9 && (l.q(1, 0) - 5.0).abs() < 1e-9);
+        for t in 5..60 {
+            let s = t % 2;
+            l.observe(&exp(t as u64, s, 0, 1 - s, 3.0));
+        }
+        assert!((l.q(0, 0) - 20.0 / 3.0).abs() < 1e-6 && (l.q(1, 0) - 16.0 / 3.0).abs() < 1e-6);
+    }
+
+    /// A pair never tried keeps q0 (optimism) and the greedy action goes there.
+    #[test]
+    fn untried_pairs_stay_optimistic() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 10.0 };
+        let mut l = DeconvModel::new(p, tiny_config(), 1, 2, 2);
+        l.observe(&exp(0, 0, 0, 1, 0.0));
+        // Q(0,0) = R̂ 0 + ½ V(1) = ½·10; Q(0,1) untried = 10.
+        assert_eq!((l.q(0, 0), l.q(0, 1)), (5.0, 10.0));
+        let mut rng = mmq_core::seed::rng_from_seed(1);
+        assert_eq!(l.greedy(0, &mut rng), 1);
+    }
+}

@@ -139,3 +139,58 @@ impl Learner for DeconvQ {
         self.deconv.reset_history();
     }
 }
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
+        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
+    }
+
+    /// K = 1 and the told pmf p = (½, ½), no penalties, a refit after 4 steps; two
+    /// states with one action alternating 0 → 1 → 0 → ...
+    pub(crate) fn tiny_config() -> DeconvConfig {
+        DeconvConfig {
+            max_delay: 1,
+            reward_prior: 0.0,
+            lasso: 0.0,
+            significance: 0.0,
+            state_rewards: false,
+            pmf_weighted: false,
+            pmf_significance: 0.0,
+            pmf_prior: 0.0,
+            refit_every: 4,
+            told: Some(vec![0.5, 0.5]),
+        }
+    }
+
+    /// Deliveries 2, 3, 3, 3 are exactly r_t = ½ R(x_t) + ½ R(x_{t−1}) with R = (4, 2)
+    /// (r_0 = ½ R(0) = 2, then ½·4 + ½·2 = 3), so the refit after t = 3 finds R̂ = (4, 2).
+    /// α = 0.5, γ = 0.5, q0 = 0.
+    #[test]
+    fn q_learning_on_deconvolved_rewards_by_hand() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
+        let trace = [(0, 1, 2.0), (1, 0, 3.0), (0, 1, 3.0), (1, 0, 3.0), (0, 1, 3.0)];
+        for lag in [0, 2] {
+            let mut l = DeconvQ::new(p, tiny_config(), lag, 2, 1);
+            for (t, &(s, s2, r)) in trace.iter().enumerate().take(3) {
+                l.observe(&exp(t as u64, s, 0, s2, r));
+            }
+            // R̂ = 0 before the first refit: every update keeps Q = 0.
+            assert_eq!((l.q(0, 0), l.q(1, 0)), (0.0, 0.0));
+            // t = 3 refits first: R̂ = (4, 2). Then (1 → 0): Q(1) ← 0 + ½ (2 + ½·0 − 0) = 1.
+            // With lag 2 the transition of t = 1, (1 → 0), is learned again:
+            //   Q(1) ← 1 + ½ (2 + ½·0 − 1) = 1.5.
+            l.observe(&exp(3, 1, 0, 0, 3.0));
+            let r = l.deconvolver().rewards();
+            assert!((r[0] - 4.0).abs() < 1e-9 && (r[1] - 2.0).abs() < 1e-9, "R̂ = {r:?}");
+            assert!((l.q(1, 0) - if lag == 0 { 1.0 } else { 1.5 }).abs() < 1e-9);
+            // t = 4, (0 → 1): Q(0) ← 0 + ½ (4 + ½·Q(1) − 0): 2.25 (lag 0) or 2.375 (lag 2);
+            // with lag 2 the transition of t = 2, (0 → 1), follows:
+            //   Q(0) ← 2.375 + ½ (4 + ½·1.5 − 2.375) = 3.5625.
+            l.observe(&exp(4, 0, 0, 1, 3.0));
+            assert!((l.q(0, 0) - if lag == 0 { 2.25 } else { 3.5625 }).abs() < 1e-9, "{}", l.q(0, 0));
+        }
+    }
+}

@@ -1,0 +1,386 @@
+//! Issue 8, "learners that reach the undelayed limit": the study behind
+//! `mmq paper --fig beyond`, as data. Every learner on the paper's 9×9 world and on
+//! the 15×15 maze, under Poisson delays λ ∈ {0, 5, 13, 25} at ε ∈ {0.02, 0.05, 0.1},
+//! and under three non-Poisson delays (uniform 0–26, a Poisson(3)/Poisson(25) mixture
+//! and a WiFi-latency-like histogram) at ε ∈ {0.05, 0.1}; plus the deconvolving
+//! learners told the true delay pmf (an ablation of the estimate) on 9×9. Drawing and
+//! the report live in the CLI (`src/beyond.rs`).
+//!
+//! Fixed for every setting: α = 0.1, γ = 0.9, q0 = 10, λ̂max = 50 (the largest delay
+//! the learners are told of), 150,000 steps, 20 seeds (the budget flags shrink these).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use mmq_core::stats::{MeanCi, mean_ci};
+use mmq_core::{DelayDist, World};
+use mmq_learn::beyond::BeyondParams;
+use mmq_learn::deconv::{SNAPSHOT_EVERY, pmf_mean, pmf_median, truncated_pmf};
+use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use serde::{Deserialize, Serialize};
+
+use crate::config::{EnvKind, RunConfig};
+use crate::error::LabError;
+use crate::paper::Group;
+
+/// Every learner of the study, in report order.
+pub const LEARNERS: [LearnerKind; 7] = [
+    LearnerKind::Q,
+    LearnerKind::Mmq,
+    LearnerKind::QLambda,
+    LearnerKind::SarsaLambda,
+    LearnerKind::DeconvQ,
+    LearnerKind::DeconvModel,
+    LearnerKind::Oracle,
+];
+/// The worlds.
+pub const WORLDS: [&str; 2] = ["paper-9x9", "maze-15x15"];
+/// Poisson means of the main grid.
+pub const LAMBDAS: [u32; 4] = [0, 5, 13, 25];
+/// Exploration rates of the main grid.
+pub const EPSILONS: [f64; 3] = [0.02, 0.05, 0.1];
+/// Exploration rates of the non-Poisson delays.
+pub const OTHER_EPSILONS: [f64; 2] = [0.05, 0.1];
+/// A WiFi-latency-like histogram: most deliveries after 2–5 steps, a long tail, and a
+/// second bump near 20 steps (retransmissions after a time-out).
+pub const WIFI_HIST: &str = "hist:0,3,9,14,12,9,6,4,3,2,1.5,1.2,1,0.8,0.7,0.6,0.6,0.7,1,1.4,1.6,1.4,1,0.7,0.5,0.4,0.3,0.3,0.2,0.2,0.2,0.1,0.1,0.1,0.1,0.1";
+/// The non-Poisson delays: (label, spec).
+pub const OTHER_DELAYS: [(&str, &str); 3] = [
+    ("uniform 0–26", "uniform:0:26"),
+    ("mixture ½ Poisson(3) + ½ Poisson(25)", "mix:0.5*poisson:3+0.5*poisson:25"),
+    ("WiFi-like histogram", WIFI_HIST),
+];
+/// Learners that estimate the delay pmf (and have a "told" ablation).
+pub const DECONV: [LearnerKind; 2] = [LearnerKind::DeconvQ, LearnerKind::DeconvModel];
+/// Steps at which the delay estimate is judged ("after 50k steps").
+pub const JUDGE_AT: u64 = 50_000;
+
+/// Budget of the study.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BeyondOptions {
+    /// Seeds per setting.
+    pub seeds: u64,
+    /// Decision steps per seed.
+    pub steps: u64,
+    /// First master seed.
+    pub seed: u64,
+    /// Directory holding the world files.
+    pub worlds: PathBuf,
+    /// Steps per curve point.
+    pub window: u64,
+}
+
+impl BeyondOptions {
+    /// The full budget (20 seeds × 150,000 steps) or a quick one (3 seeds × 20,000).
+    pub fn new(quick: bool) -> Self {
+        let (seeds, steps, window) = if quick { (3, 20_000, 1000) } else { (20, 150_000, 2500) };
+        Self { seeds, steps, seed: 0, worlds: PathBuf::from("worlds"), window }
+    }
+}
+
+/// One setting of the study.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Setting {
+    /// World name (file stem).
+    pub world: String,
+    /// Delay spec.
+    pub delay: String,
+    /// Short label of the delay.
+    pub delay_label: String,
+    /// ε.
+    pub epsilon: f64,
+    /// The learner.
+    pub learner: LearnerKind,
+    /// Whether a deconvolving learner is told the true pmf (ablation).
+    pub told: bool,
+}
+
+impl Setting {
+    /// The learner's name as reported (`deconv-q (told pmf)` for the ablation).
+    pub fn learner_label(&self) -> String {
+        if self.told {
+            format!("{} (told pmf)", self.learner.name())
+        } else {
+            self.learner.name().to_string()
+        }
+    }
+}
+
+/// Every setting of the study, in a fixed order.
+pub fn settings() -> Vec<Setting> {
+    let mut v = Vec::new();
+    let mut push = |world: &str, delay: &str, label: &str, epsilon: f64, learner, told| {
+        v.push(Setting {
+            world: world.into(),
+            delay: delay.into(),
+            delay_label: label.into(),
+            epsilon,
+            learner,
+            told,
+        })
+    };
+    for world in WORLDS {
+        for l in LAMBDAS {
+            for eps in EPSILONS {
+                for k in LEARNERS {
+                    push(world, &format!("poisson:{l}"), &format!("Poisson λ = {l}"), eps, k, false);
+                }
+            }
+        }
+        for (label, spec) in OTHER_DELAYS {
+            for eps in OTHER_EPSILONS {
+                for k in LEARNERS {
+                    push(world, spec, label, eps, k, false);
+                }
+            }
+        }
+    }
+    // Ablation: told the true pmf, 9×9, the four non-trivial delays.
+    let delays = [("Poisson λ = 13", "poisson:13")].into_iter().chain(OTHER_DELAYS);
+    for (label, spec) in delays {
+        for eps in OTHER_EPSILONS {
+            for k in DECONV {
+                push("paper-9x9", spec, label, eps, k, true);
+            }
+        }
+    }
+    v
+}
+
+/// The run configuration of a setting.
+pub fn config(o: &BeyondOptions, s: &Setting) -> RunConfig {
+    let params = Params { alpha: 0.1, gamma: 0.9, epsilon: s.epsilon, q0: 10.0 };
+    let beyond = BeyondParams { told_delay: s.told.then(|| s.delay.clone()), ..BeyondParams::default() };
+    RunConfig {
+        world: o.worlds.join(format!("{}.toml", s.world)),
+        env: EnvKind::Grid,
+        learner: LearnerSpec { kind: s.learner, params, lambda_hat: 0, max_delay: 50, beyond },
+        delay: s.delay.clone(),
+        steps: o.steps,
+        seed: o.seed,
+        seeds: o.seeds,
+        window: o.window,
+        eval_steps: 1000,
+        baseline: false,
+        save_tables: false,
+        ledger: false,
+        ..RunConfig::default()
+    }
+}
+
+/// What one setting produced, over seeds.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Outcome {
+    /// The setting.
+    pub setting: Setting,
+    /// Seeds.
+    pub n: usize,
+    /// Relative performance (cumulative earned ÷ undelayed Q-learning's).
+    pub relative: MeanCi,
+    /// Earned reward per step ÷ the exact optimum.
+    pub fraction: MeanCi,
+    /// Greedy evaluation, reward per step from S.
+    pub greedy: MeanCi,
+    /// Worst seed's greedy evaluation.
+    pub greedy_min: f64,
+    /// Seeds whose greedy policy is optimal from S (≥ the optimum's own 1000-step score).
+    pub greedy_optimal: usize,
+    /// Wall-clock seconds per seed (learning, evaluation; no baseline).
+    pub seconds: MeanCi,
+    /// Delay estimate (deconvolving learners): median of p̂ at every snapshot.
+    pub median_curve: Vec<(u64, MeanCi)>,
+    /// Mean of p̂ at every snapshot.
+    pub mean_curve: Vec<(u64, MeanCi)>,
+    /// p̂ at the end, mean over seeds, delays 0..=50.
+    pub pmf: Vec<f64>,
+    /// |median of p̂ − true median| at [`JUDGE_AT`] steps, worst seed.
+    pub median_error_max: Option<f64>,
+    /// Mass of p̂ at the end in the low and high lobe of the mixture (split at 12), mean.
+    pub lobes: Option<(MeanCi, MeanCi)>,
+}
+
+/// The true delay pmf over 0..=50 and its median and mean.
+pub fn truth(delay: &str) -> Result<(Vec<f64>, f64, f64), LabError> {
+    let d = DelayDist::parse(delay)?;
+    let p = truncated_pmf(&d, 50);
+    let (med, mean) = (pmf_median(&p), pmf_mean(&p));
+    Ok((p, med, mean))
+}
+
+/// Where the mixture's lobes are split.
+pub const LOBE_SPLIT: usize = 12;
+
+/// The greedy evaluation score of the optimal policy over `eval_steps` from S: the goal
+/// reward every 1/gain·goal steps, counted whole.
+pub fn optimal_greedy_score(world: &World, eval_steps: u64) -> f64 {
+    let gain = mmq_core::optimum(world).gain;
+    let goal = world.rewards.goal;
+    let cycle = (goal / gain).round();
+    goal * (eval_steps as f64 / cycle).floor() / eval_steps as f64
+}
+
+/// Summarises a group run by `run_groups` for `setting`.
+pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, LabError> {
+    let optimum = mmq_core::optimum(world).gain;
+    let best = optimal_greedy_score(world, g.cfg.eval_steps);
+    let rs = &g.results;
+    let greedy: Vec<f64> = rs.iter().map(|r| r.greedy_per_step).collect();
+    let metric =
+        |r: &crate::SeedResult, key: &str| r.learner_metrics.iter().find(|m| m.0 == key).map(|m| m.1);
+    let curve = |prefix: &str| -> Vec<(u64, MeanCi)> {
+        (1..=g.cfg.steps / SNAPSHOT_EVERY)
+            .filter_map(|i| {
+                let t = i * SNAPSHOT_EVERY;
+                let xs: Vec<f64> = rs.iter().filter_map(|r| metric(r, &format!("{prefix}@{t}"))).collect();
+                (!xs.is_empty()).then(|| (t, mean_ci(&xs)))
+            })
+            .collect()
+    };
+    let estimates = DECONV.contains(&setting.learner) && !setting.told;
+    let (true_pmf, true_median, _) = truth(&setting.delay)?;
+    let pmfs: Vec<Vec<f64>> = rs
+        .iter()
+        .filter_map(|r| {
+            (0..=50).map(|k| metric(r, &format!("delay/pmf/{k:03}"))).collect::<Option<Vec<f64>>>()
+        })
+        .collect();
+    let pmf = if pmfs.is_empty() {
+        Vec::new()
+    } else {
+        (0..=50).map(|k| pmfs.iter().map(|p| p[k]).sum::<f64>() / pmfs.len() as f64).collect()
+    };
+    let median_error_max = estimates
+        .then(|| {
+            rs.iter()
+                .filter_map(|r| metric(r, &format!("delay/median_est@{JUDGE_AT}")))
+                .map(|m| (m - true_median).abs())
+                .reduce(f64::max)
+        })
+        .flatten();
+    let lobes = (estimates && setting.delay.starts_with("mix") && !pmfs.is_empty()).then(|| {
+        let lo: Vec<f64> = pmfs.iter().map(|p| p[..LOBE_SPLIT].iter().sum()).collect();
+        let hi: Vec<f64> = pmfs.iter().map(|p| p[LOBE_SPLIT..].iter().sum()).collect();
+        (mean_ci(&lo), mean_ci(&hi))
+    });
+    let _ = true_pmf;
+    Ok(Outcome {
+        setting: setting.clone(),
+        n: rs.len(),
+        relative: g.relative(),
+        fraction: g.fraction(optimum),
+        greedy: mean_ci(&greedy),
+        greedy_min: greedy.iter().copied().fold(f64::INFINITY, f64::min),
+        greedy_optimal: greedy.iter().filter(|&&x| x >= best - 1e-9).count(),
+        seconds: mean_ci(&rs.iter().map(|r| r.wall_time_s).collect::<Vec<_>>()),
+        median_curve: if estimates { curve("delay/median_est") } else { Vec::new() },
+        mean_curve: if estimates { curve("delay/mean_est") } else { Vec::new() },
+        pmf,
+        median_error_max,
+        lobes,
+    })
+}
+
+/// One CSV row per setting.
+pub fn outcomes_csv(outs: &[Outcome]) -> String {
+    let mut s = String::from(
+        "world,delay,epsilon,learner,told,n,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,greedy_min,greedy_optimal_seeds,median_est_final,median_est_final_ci95,median_error_max_at_50k,lobe_low,lobe_high,seconds_per_seed\n",
+    );
+    for o in outs {
+        let st = &o.setting;
+        let last = o.median_curve.last().map(|x| x.1);
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            st.world,
+            st.delay,
+            st.epsilon,
+            st.learner.name(),
+            st.told,
+            o.n,
+            o.relative.mean,
+            o.relative.ci95,
+            o.fraction.mean,
+            o.fraction.ci95,
+            o.greedy.mean,
+            o.greedy.ci95,
+            o.greedy_min,
+            o.greedy_optimal,
+            last.map_or(String::new(), |m| m.mean.to_string()),
+            last.map_or(String::new(), |m| m.ci95.to_string()),
+            o.median_error_max.map_or(String::new(), |x| x.to_string()),
+            o.lobes.map_or(String::new(), |l| l.0.mean.to_string()),
+            o.lobes.map_or(String::new(), |l| l.1.mean.to_string()),
+            o.seconds.mean
+        );
+    }
+    s
+}
+
+/// The delay estimate over time: one row per (setting, snapshot).
+pub fn delay_csv(outs: &[Outcome]) -> Result<String, LabError> {
+    let mut s = String::from(
+        "world,delay,epsilon,learner,step,median_est,median_ci95,mean_est,mean_ci95,true_median,true_mean\n",
+    );
+    for o in outs.iter().filter(|o| !o.median_curve.is_empty()) {
+        let st = &o.setting;
+        let (_, tmed, tmean) = truth(&st.delay)?;
+        for ((t, m), (_, a)) in o.median_curve.iter().zip(&o.mean_curve) {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{t},{},{},{},{},{tmed},{tmean}",
+                st.world,
+                st.delay,
+                st.epsilon,
+                st.learner.name(),
+                m.mean,
+                m.ci95,
+                a.mean,
+                a.ci95
+            );
+        }
+    }
+    Ok(s)
+}
+
+/// Estimated pmfs at the end (mean over seeds) next to the truth: one row per delay k.
+pub fn pmf_csv(outs: &[Outcome]) -> Result<String, LabError> {
+    let mut s = String::from("world,delay,epsilon,learner,k,p_est,p_true\n");
+    for o in outs.iter().filter(|o| !o.pmf.is_empty() && !o.setting.told) {
+        let st = &o.setting;
+        let (tp, _, _) = truth(&st.delay)?;
+        for (k, (pe, pt)) in o.pmf.iter().zip(&tp).enumerate() {
+            let _ =
+                writeln!(s, "{},{},{},{},{k},{pe},{pt}", st.world, st.delay, st.epsilon, st.learner.name());
+        }
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_setting_builds_a_valid_config() {
+        let o = BeyondOptions::new(true);
+        let all = settings();
+        assert_eq!(all.len(), 2 * (4 * 3 + 3 * 2) * 7 + 4 * 2 * 2);
+        for s in &all {
+            let c = config(&o, s);
+            c.validate().unwrap();
+            assert_eq!(c.learner.beyond.told_delay.is_some(), s.told);
+        }
+        for (_, spec) in OTHER_DELAYS {
+            let (p, med, _) = truth(spec).unwrap();
+            assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9 && med > 0.0);
+        }
+        let (_, med, mean) = truth("uniform:0:26").unwrap();
+        assert!((med - 13.0).abs() < 1e-9 && (mean - 13.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn optimal_greedy_score_counts_whole_goals() {
+        let w = World::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml")).unwrap();
+        assert!((optimal_greedy_score(&w, 1000) - 0.58).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,291 @@
+//! `mmq paper --fig beyond`: runs issue 8's study (`mmq_lab::beyond`: every learner,
+//! two worlds, Poisson and non-Poisson delays, three ε), draws its figures and returns
+//! its section of `report.md` — relative performance, fraction of the optimum, greedy
+//! evaluation and the delay estimate against the truth, each with its 95 % interval.
+
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use mmq_core::World;
+use mmq_core::stats::MeanCi;
+use mmq_lab::beyond::{self, BeyondOptions, DECONV, JUDGE_AT, LEARNERS, Outcome};
+use mmq_lab::paper::{self as lab_paper};
+use mmq_lab::{Control, LabError};
+use mmq_learn::LearnerKind;
+use mmq_plot::{LineChart, RefLine, Series};
+
+use crate::{Failure, progress};
+
+/// What the study adds to the report.
+#[derive(Debug, Default)]
+pub struct Section {
+    /// Markdown.
+    pub md: String,
+    /// Files written (figures and CSV).
+    pub files: Vec<PathBuf>,
+}
+
+fn pct(m: &MeanCi) -> String {
+    if m.mean.is_finite() { format!("{:.1} ± {:.1}", 100.0 * m.mean, 100.0 * m.ci95) } else { "—".into() }
+}
+
+fn num(m: &MeanCi, digits: usize) -> String {
+    if m.mean.is_finite() { format!("{:.*} ± {:.*}", digits, m.mean, digits, m.ci95) } else { "—".into() }
+}
+
+fn plot_err(e: mmq_plot::PlotError) -> Failure {
+    Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("{e}") }
+}
+
+impl Section {
+    fn figure(&mut self, written: Vec<PathBuf>, caption: &str) {
+        if let Some(png) = written.iter().find(|p| p.extension().is_some_and(|e| e == "png")) {
+            let name = png.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let _ = writeln!(self.md, "\n![{caption}]({name})\n\n*{caption}*\n");
+        }
+        self.files.extend(written);
+    }
+
+    fn csv(&mut self, out: &Path, name: &str, text: &str) -> Result<(), Failure> {
+        let p = lab_paper::write_csv(out, name, text)?;
+        let _ = writeln!(self.md, "Data: [`{name}`]({name})\n");
+        self.files.push(p);
+        Ok(())
+    }
+}
+
+/// Finds the outcome of one setting.
+struct Index<'a> {
+    by: HashMap<(String, String, u64, LearnerKind, bool), &'a Outcome>,
+}
+
+impl<'a> Index<'a> {
+    fn new(outs: &'a [Outcome]) -> Self {
+        let by = outs
+            .iter()
+            .map(|o| {
+                let s = &o.setting;
+                ((s.world.clone(), s.delay.clone(), s.epsilon.to_bits(), s.learner, s.told), o)
+            })
+            .collect();
+        Self { by }
+    }
+
+    fn get(&self, world: &str, delay: &str, eps: f64, k: LearnerKind, told: bool) -> Option<&'a Outcome> {
+        self.by.get(&(world.to_string(), delay.to_string(), eps.to_bits(), k, told)).copied()
+    }
+}
+
+/// Runs the study and returns its report section.
+pub fn run(o: &BeyondOptions, out: &Path, stop: &AtomicBool, quiet: bool) -> Result<Section, Failure> {
+    let settings = beyond::settings();
+    let cfgs: Vec<_> = settings.iter().map(|s| beyond::config(o, s)).collect();
+    let pb = progress::bar(lab_paper::total_steps(&cfgs), "beyond", quiet);
+    let prog = |n: u64| pb.inc(n);
+    let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &prog })?;
+    pb.finish_and_clear();
+    let mut worlds: HashMap<String, World> = HashMap::new();
+    for w in beyond::WORLDS {
+        worlds
+            .insert(w.to_string(), World::load(o.worlds.join(format!("{w}.toml"))).map_err(LabError::from)?);
+    }
+    let outs: Vec<Outcome> = settings
+        .iter()
+        .zip(&groups)
+        .map(|(s, g)| beyond::outcome(s, g, &worlds[&s.world]))
+        .collect::<Result<_, _>>()?;
+    report(o, out, &outs)
+}
+
+fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Failure> {
+    let ix = Index::new(outs);
+    let mut sec = Section::default();
+    let md = &mut sec.md;
+    let _ = writeln!(
+        md,
+        "\n## Beyond the paper: learners that reach the undelayed limit (issue 8)\n\n\
+         Every learner on the paper's 9×9 world and on the 15×15 maze, {} seeds × {} steps per setting, \
+         α = 0.1, γ = 0.9, q0 = 10, largest delay told to the learners λ̂max = 50. Relative performance \
+         is against undelayed Q-learning with the same ε and q0 (100 % = as good as with no delay at all). \
+         \"Greedy optimal\" counts the seeds whose greedy policy scores as much as the optimal policy over \
+         the 1000 evaluation steps from S (9×9: 0.580/step; maze: 0.300/step). `oracle` reads the channel's \
+         ground truth: an upper bound, not a real agent. `deconv-q` and `deconv-model` are told only λ̂max and \
+         estimate the delay distribution online (docs/algorithms/deconv-q.md, deconv-model.md); \"told pmf\" \
+         rows give them the true distribution instead (ablation).\n",
+        o.seeds, o.steps
+    );
+    // Headline: 9×9 at ε = 0.05 and 0.1 for the four non-trivial delays.
+    let headline_delays: Vec<(String, String)> =
+        std::iter::once(("Poisson λ = 13".to_string(), "poisson:13".to_string()))
+            .chain(beyond::OTHER_DELAYS.iter().map(|(l, s)| (l.to_string(), s.to_string())))
+            .collect();
+    for (label, delay) in &headline_delays {
+        let _ = writeln!(
+            md,
+            "\n### 9×9, {label}\n\n| learner | ε | relative performance (%) | fraction of optimum (%) | greedy (reward/step) | worst seed | greedy optimal |\n|---|---|---|---|---|---|---|"
+        );
+        for eps in beyond::OTHER_EPSILONS {
+            for (k, told) in LEARNERS.iter().map(|&k| (k, false)).chain(DECONV.iter().map(|&k| (k, true))) {
+                let Some(x) = ix.get("paper-9x9", delay, eps, k, told) else { continue };
+                let _ = writeln!(
+                    md,
+                    "| {} | {eps} | {} | {} | {} | {:.3} | {}/{} |",
+                    x.setting.learner_label(),
+                    pct(&x.relative),
+                    pct(&x.fraction),
+                    num(&x.greedy, 3),
+                    x.greedy_min,
+                    x.greedy_optimal,
+                    x.n
+                );
+            }
+        }
+    }
+    // Full grids: relative performance per world and ε, learners × delays.
+    for world in beyond::WORLDS {
+        let _ = writeln!(md, "\n### {world}: relative performance (%) for every delay\n");
+        for eps in beyond::EPSILONS {
+            let delays: Vec<(String, String)> = beyond::LAMBDAS
+                .iter()
+                .map(|l| (format!("λ = {l}"), format!("poisson:{l}")))
+                .chain(
+                    beyond::OTHER_DELAYS
+                        .iter()
+                        .filter(|_| beyond::OTHER_EPSILONS.contains(&eps))
+                        .map(|(l, s)| (l.to_string(), s.to_string())),
+                )
+                .collect();
+            let _ = write!(md, "\nε = {eps}\n\n| learner |");
+            for (l, _) in &delays {
+                let _ = write!(md, " {l} |");
+            }
+            let _ = write!(md, "\n|---|");
+            for _ in &delays {
+                md.push_str("---|");
+            }
+            md.push('\n');
+            for k in LEARNERS {
+                let _ = write!(md, "| {} |", k.name());
+                for (_, d) in &delays {
+                    let cell = ix.get(world, d, eps, k, false).map_or("—".to_string(), |x| {
+                        format!("{} ({}/{} opt.)", pct(&x.relative), x.greedy_optimal, x.n)
+                    });
+                    let _ = write!(md, " {cell} |");
+                }
+                md.push('\n');
+            }
+        }
+    }
+    // Delay estimates.
+    let _ = writeln!(
+        md,
+        "\n### Delay estimate against the truth\n\nMedian of the estimated pmf (interpolated; mean ± 95 % interval over seeds) at the end, \
+         the worst seed's distance from the true median after {JUDGE_AT} steps, and for the mixture the estimated mass of each lobe \
+         (delays below and from {} steps; truth ≈ 0.5 / 0.5).\n\n| world | delay | ε | learner | true median | estimated median (end) | worst |error| at {JUDGE_AT} | lobes (low / high) |\n|---|---|---|---|---|---|---|---|",
+        beyond::LOBE_SPLIT
+    );
+    for x in outs.iter().filter(|x| !x.median_curve.is_empty()) {
+        let s = &x.setting;
+        let (_, tmed, _) = beyond::truth(&s.delay)?;
+        let end = x.median_curve.last().map(|c| c.1);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {tmed:.2} | {} | {} | {} |",
+            s.world,
+            s.delay_label,
+            s.epsilon,
+            s.learner.name(),
+            end.map_or("—".into(), |m| num(&m, 2)),
+            x.median_error_max.map_or("—".into(), |e| format!("{e:.2}")),
+            x.lobes.map_or("—".into(), |l| format!("{:.2} / {:.2}", l.0.mean, l.1.mean))
+        );
+    }
+    let _ = writeln!(md, "\n### Figures\n");
+    // Relative performance vs λ, per world at ε = 0.05.
+    for world in beyond::WORLDS {
+        let eps = 0.05;
+        let mut chart = LineChart::new(
+            format!("{world}, ε = {eps}: relative performance vs Poisson mean λ"),
+            "mean delay λ (steps)",
+            "relative performance (%)",
+        );
+        for k in LEARNERS {
+            let pts: Vec<(f64, MeanCi)> = beyond::LAMBDAS
+                .iter()
+                .filter_map(|&l| {
+                    ix.get(world, &format!("poisson:{l}"), eps, k, false).map(|x| (l as f64, x.relative))
+                })
+                .collect();
+            let x: Vec<f64> = pts.iter().map(|p| p.0).collect();
+            let y: Vec<f64> = pts.iter().map(|p| 100.0 * p.1.mean).collect();
+            let lo: Vec<f64> = pts.iter().map(|p| 100.0 * (p.1.mean - p.1.ci95)).collect();
+            let hi: Vec<f64> = pts.iter().map(|p| 100.0 * (p.1.mean + p.1.ci95)).collect();
+            chart.series.push(Series::new(k.name(), x, y).with_band(lo, hi).with_markers());
+        }
+        chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+        chart.y_range = Some((-40.0, 130.0));
+        let name = format!("beyond-relative-{world}");
+        sec.figure(
+            chart.write(&out.join(&name)).map_err(plot_err)?,
+            &format!("{world}, ε = {eps}: relative performance of every learner vs the Poisson mean delay"),
+        );
+    }
+    // Delay estimate over time (9×9, ε = 0.05).
+    for k in DECONV {
+        let mut chart = LineChart::new(
+            format!("9×9, ε = 0.05: {}'s delay estimate over time", k.name()),
+            "step",
+            "median of the estimated delay pmf (steps)",
+        );
+        for (label, delay) in &headline_delays {
+            let Some(x) = ix.get("paper-9x9", delay, 0.05, k, false) else { continue };
+            let (_, tmed, _) = beyond::truth(delay)?;
+            let t: Vec<f64> = x.median_curve.iter().map(|c| c.0 as f64).collect();
+            let y: Vec<f64> = x.median_curve.iter().map(|c| c.1.mean - tmed).collect();
+            let lo: Vec<f64> = x.median_curve.iter().map(|c| c.1.mean - c.1.ci95 - tmed).collect();
+            let hi: Vec<f64> = x.median_curve.iter().map(|c| c.1.mean + c.1.ci95 - tmed).collect();
+            chart.series.push(Series::new(label.clone(), t, y).with_band(lo, hi).with_markers());
+        }
+        chart.ref_lines.push(RefLine::new("truth (error 0)", 0.0));
+        chart.ref_lines.push(RefLine::new("±1.5 steps", 1.5));
+        chart.ref_lines.push(RefLine::new("", -1.5));
+        chart.y_label = "estimated − true median (steps)".into();
+        let name = format!("beyond-delay-{}", k.name());
+        sec.figure(
+            chart.write(&out.join(&name)).map_err(plot_err)?,
+            &format!(
+                "9×9, ε = 0.05: error of {}'s median delay estimate over time (mean over seeds, 95 % band)",
+                k.name()
+            ),
+        );
+    }
+    // Estimated pmf vs truth (9×9, ε = 0.05).
+    for (label, delay) in &headline_delays {
+        let (tp, _, _) = beyond::truth(delay)?;
+        let mut chart =
+            LineChart::new(format!("9×9, ε = 0.05, {label}: delay pmf"), "delay k (steps)", "P(d = k)");
+        let ks: Vec<f64> = (0..tp.len()).map(|k| k as f64).collect();
+        chart.series.push(Series::new("truth", ks.clone(), tp.clone()));
+        for k in DECONV {
+            if let Some(x) = ix.get("paper-9x9", delay, 0.05, k, false).filter(|x| !x.pmf.is_empty()) {
+                chart.series.push(Series::new(
+                    format!("{} (mean over seeds)", k.name()),
+                    ks.clone(),
+                    x.pmf.clone(),
+                ));
+            }
+        }
+        let slug: String =
+            delay.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(24).collect();
+        sec.figure(
+            chart.write(&out.join(format!("beyond-pmf-{slug}"))).map_err(plot_err)?,
+            &format!("9×9, ε = 0.05, {label}: estimated delay pmf at the end vs the truth"),
+        );
+    }
+    sec.csv(out, "beyond.csv", &beyond::outcomes_csv(outs))?;
+    sec.csv(out, "beyond-delay.csv", &beyond::delay_csv(outs)?)?;
+    sec.csv(out, "beyond-pmf.csv", &beyond::pmf_csv(outs)?)?;
+    Ok(sec)
+}
