@@ -101,8 +101,11 @@ impl DelayDist {
             }
             "hist" | "empirical" => {
                 let w = arg.split(',').map(|x| num(x, "weight")).collect::<Result<Vec<_>, _>>()?;
-                if w.iter().any(|&x| x < 0.0) || w.iter().sum::<f64>() <= 0.0 {
-                    return Err(fail("weights must be ≥ 0 with a positive sum".into()));
+                // A sum that overflows to infinity would make every probability 0 and the
+                // mean NaN.
+                let sum = w.iter().sum::<f64>();
+                if w.iter().any(|&x| x < 0.0) || !(sum > 0.0 && sum.is_finite()) {
+                    return Err(fail("weights must be ≥ 0 with a positive, finite sum".into()));
                 }
                 DelayDist::Empirical(w)
             }
@@ -119,11 +122,18 @@ impl DelayDist {
                     let sub = DelayDist::parse(sub).map_err(|e| fail(e.reason))?;
                     parts.push((w, sub));
                 }
+                let sum: f64 = parts.iter().map(|p| p.0).sum();
+                if !sum.is_finite() {
+                    return Err(fail(format!(
+                        "the mixture weights add up to {sum}; use finite weights, e.g. mix:0.5*poisson:3+0.5*poisson:25"
+                    )));
+                }
                 DelayDist::Mixture(parts)
             }
             _ => return Err(fail(format!("unknown distribution; {ACCEPTED}"))),
         };
-        if d.mean() > MAX_MEAN_DELAY {
+        // A NaN mean (e.g. hist weights whose k·w overflow) is refused too.
+        if d.mean().is_nan() || d.mean() > MAX_MEAN_DELAY {
             return Err(fail(format!(
                 "the mean delay {} is above the supported {MAX_MEAN_DELAY} steps",
                 d.mean()
@@ -353,7 +363,9 @@ mod tests {
             ("uniform:5:2", "above HI"),
             ("geometric:0", "(0, 1]"),
             ("gauss:3", "unknown distribution"),
-            ("hist:0,0", "positive sum"),
+            ("hist:0,0", "positive, finite sum"),
+            ("hist:1e308,1e308", "positive, finite sum"),
+            ("mix:1e308*geom:1+1e308*geom:1", "mixture weights add up to inf"),
         ] {
             let e = DelayDist::parse(s).unwrap_err().to_string();
             assert!(e.contains(needle), "{s}: {e}");
