@@ -22,6 +22,7 @@
 
 use std::collections::VecDeque;
 use std::fmt;
+use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -32,6 +33,8 @@ use crate::env::{Event, Move};
 pub const MAX_SIDE: usize = 1000;
 /// Largest accepted number of cells.
 pub const MAX_CELLS: usize = 250_000;
+/// Largest accepted world file, bytes (the largest map is a few hundred KiB).
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
 
 /// What a map cell is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -156,10 +159,25 @@ impl World {
     pub fn load(path: impl AsRef<Path>) -> Result<World, WorldError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| WorldError {
+        let cannot = |e: std::io::Error| WorldError {
             file: file.clone(),
             message: format!("cannot read the world file: {e}"),
-        })?;
+        };
+        // Read at most MAX_FILE_BYTES (+1 to notice more): `--world /dev/zero`, a FIFO
+        // or a huge file must not take all memory.
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_string(&mut text))
+            .map_err(cannot)?;
+        if text.len() as u64 > MAX_FILE_BYTES {
+            return Err(WorldError {
+                file,
+                message: format!(
+                    "the world file is larger than {} MiB; a world file is a small text file (see docs/worlds.md)",
+                    MAX_FILE_BYTES >> 20
+                ),
+            });
+        }
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         let mut w = Self::parse_named(&text, &file, stem.as_deref())?;
         w.path = Some(path.to_path_buf());
