@@ -217,8 +217,8 @@ pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
             Ok(LinearReadEvent::Record { opcode, data }) => {
                 let len = 9 + data.len() as u64;
                 let raw = (opcode, data);
-                let result = mcap::parse_record(opcode, data)
-                    .map_err(|e| e.to_string())
+                let result = check_lengths(opcode, data)
+                    .and_then(|()| mcap::parse_record(opcode, data).map_err(|e| e.to_string()))
                     .and_then(|rec| st.top_level(rec, raw, &mut out, &mut in_data_section));
                 if let Err(reason) = result {
                     break Some(reason);
@@ -379,6 +379,130 @@ impl State {
     }
 }
 
+/// Checks that every length prefix inside a record body (strings, byte arrays, maps and
+/// arrays, per the MCAP specification's layout of each opcode) fits in the body, before
+/// the `mcap` crate parses it: the crate reserves a prefix's length before reading, so a
+/// damaged 4-byte length in a 30 KiB file would otherwise allocate 4 GiB (found by
+/// fuzzing; `tests/regressions/mcap_read/`).
+fn check_lengths(opcode: u8, body: &[u8]) -> Result<(), String> {
+    use mcap::records::op;
+    struct Cursor<'a> {
+        rest: &'a [u8],
+        opcode: u8,
+    }
+    impl Cursor<'_> {
+        fn skip(&mut self, n: u64) -> Result<(), String> {
+            match usize::try_from(n).ok().filter(|&n| n <= self.rest.len()) {
+                Some(n) => {
+                    self.rest = &self.rest[n..];
+                    Ok(())
+                }
+                None => Err(format!(
+                    "damaged record (opcode 0x{:02x}): a length of {n} bytes exceeds the {} left in the record",
+                    self.opcode,
+                    self.rest.len()
+                )),
+            }
+        }
+        fn len(&mut self, width: usize) -> Result<u64, String> {
+            if self.rest.len() < width {
+                // Too short for the prefix itself: the parser reports it without allocating.
+                self.rest = &[];
+                return Ok(0);
+            }
+            let mut b = [0u8; 8];
+            b[..width].copy_from_slice(&self.rest[..width]);
+            self.rest = &self.rest[width..];
+            Ok(u64::from_le_bytes(b))
+        }
+        /// A u32- or u64-prefixed run of bytes (string, byte array, map or array).
+        fn prefixed(&mut self, width: usize) -> Result<(), String> {
+            let n = self.len(width)?;
+            self.skip(n)
+        }
+        /// A map of string to string: its byte length, then strings that fit in it.
+        fn string_map(&mut self) -> Result<(), String> {
+            let n = self.len(4)?;
+            let whole = self.rest;
+            self.skip(n)?;
+            let mut inner = Cursor { rest: &whole[..n as usize], opcode: self.opcode };
+            while !inner.rest.is_empty() {
+                inner.prefixed(4)?;
+            }
+            Ok(())
+        }
+    }
+    let mut c = Cursor { rest: body, opcode };
+    let fixed = |c: &mut Cursor<'_>, n: u64| c.skip(n.min(c.rest.len() as u64));
+    match opcode {
+        op::HEADER => {
+            c.prefixed(4)?;
+            c.prefixed(4)
+        }
+        op::SCHEMA => {
+            fixed(&mut c, 2)?;
+            c.prefixed(4)?;
+            c.prefixed(4)?;
+            c.prefixed(4)
+        }
+        op::CHANNEL => {
+            fixed(&mut c, 4)?;
+            c.prefixed(4)?;
+            c.prefixed(4)?;
+            c.string_map()
+        }
+        op::CHUNK => {
+            fixed(&mut c, 28)?;
+            c.prefixed(4)?;
+            c.prefixed(8)
+        }
+        op::MESSAGE_INDEX => {
+            fixed(&mut c, 2)?;
+            c.prefixed(4)
+        }
+        op::CHUNK_INDEX => {
+            fixed(&mut c, 32)?;
+            c.prefixed(4)?;
+            fixed(&mut c, 8)?;
+            c.prefixed(4)
+        }
+        op::ATTACHMENT => {
+            fixed(&mut c, 16)?;
+            c.prefixed(4)?;
+            c.prefixed(4)?;
+            // Data length, data, CRC: the crate slices up to 4 bytes before the end
+            // after the length field, and panics when fewer than 4 bytes follow it.
+            if c.rest.len() < 12 {
+                return Err(format!(
+                    "damaged record (opcode 0x{opcode:02x}): {} bytes left for an attachment's data length and CRC (12 at least)",
+                    c.rest.len()
+                ));
+            }
+            let n = c.len(8)?;
+            c.rest = &c.rest[..c.rest.len() - 4];
+            c.skip(n)
+        }
+        op::ATTACHMENT_INDEX => {
+            fixed(&mut c, 40)?;
+            c.prefixed(4)?;
+            c.prefixed(4)
+        }
+        op::STATISTICS => {
+            fixed(&mut c, 42)?;
+            c.prefixed(4)
+        }
+        op::METADATA => {
+            c.prefixed(4)?;
+            c.string_map()
+        }
+        op::METADATA_INDEX => {
+            fixed(&mut c, 16)?;
+            c.prefixed(4)
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Largest uncompressed chunk accepted: a damaged size field must not make the reader
 /// allocate without bound.
 fn chunk_limit(compressed_len: usize) -> usize {
@@ -410,6 +534,7 @@ fn read_chunk((opcode, body): (u8, &[u8])) -> Result<Vec<Pending>, String> {
                 input = &input[n..];
             }
             LinearReadEvent::Record { opcode, data } => {
+                check_lengths(opcode, data).map_err(|e| format!("damaged chunk: {e}"))?;
                 match mcap::parse_record(opcode, data).map_err(|e| format!("damaged chunk: {e}"))? {
                     Record::Schema { header, data } => pending.push(Pending::Schema(
                         header.id,
