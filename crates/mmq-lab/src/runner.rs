@@ -502,6 +502,23 @@ pub fn run_all(
             }
             .into());
         }
+        // The tables of every seed are kept until the outputs are written: all of them
+        // must fit too (`--seeds 1000000` of the 9×9 MMQ would ask for 130 GB).
+        let kept = if cfg.save_tables { bytes * seeds.len() as u128 } else { 0 };
+        let all = memory_limit(1);
+        if kept > all {
+            let gib = |b: u128| b as f64 / (1u128 << 30) as f64;
+            return Err(LabError::param(
+                "--seeds",
+                cfg.seeds,
+                &format!(
+                    "the tables of {} seeds ({:.1} GiB) are kept until written, more than the {:.1} GiB allowed; use fewer seeds or --no-tables",
+                    seeds.len(),
+                    gib(kept),
+                    gib(all)
+                ),
+            ));
+        }
     }
     let results: Vec<Result<Option<SeedResult>, LabError>> = seeds
         .par_iter()
