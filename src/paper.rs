@@ -237,6 +237,15 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
         rep.md.insert_str(intro_end, &t);
     }
     let _ = writeln!(rep.md, "\n---\nWall time: {:.1} s.", clock.elapsed().as_secs_f64());
+    if stop.load(std::sync::atomic::Ordering::SeqCst) {
+        // Partial: say so under the title, where a reader looks first.
+        let at = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
+        rep.md.insert_str(
+            at,
+            "**Interrupted** (Ctrl-C or SIGTERM): the runs stopped early, so the figures and numbers \
+             cover only the steps that ran; the settings stated are those asked for.\n\n",
+        );
+    }
     let report = a.out.join("report.md");
     mmq_lab::output::write_atomic(&report, rep.md.as_bytes())?;
     println!(

@@ -1,6 +1,7 @@
 //! `mmq world check|show`.
 
 use mmq_core::{Move, World, optimum};
+use mmq_lab::runner::robot_env;
 
 use crate::Failure;
 use crate::cli::{WorldAction, WorldArgs};
@@ -12,7 +13,15 @@ pub fn world(args: WorldArgs) -> Result<(), Failure> {
             let mut bad = 0;
             let total = files.len();
             for f in files {
-                match World::load(&f) {
+                // A `[robot]` table is checked too (against the world's cell size): the
+                // robot environment would refuse it at the start of `mmq run --env robot`.
+                let checked = World::load(&f).map_err(|e| e.to_string()).and_then(|w| {
+                    if w.robot.is_some() {
+                        robot_env(&w).map_err(|e| e.to_string())?;
+                    }
+                    Ok(w)
+                });
+                match checked {
                     Ok(w) => {
                         let o = optimum(&w);
                         println!(
