@@ -420,14 +420,15 @@ fn check_lengths(opcode: u8, body: &[u8]) -> Result<(), String> {
             let n = self.len(width)?;
             self.skip(n)
         }
-        /// A map of string to string: its byte length, then strings that fit in it.
+        /// A map of string to string, read as the crate reads it: key-value pairs while
+        /// fewer than the map's byte length were read, so the last pair may run past the
+        /// map (and every prefix is checked against the whole record).
         fn string_map(&mut self) -> Result<(), String> {
             let n = self.len(4)?;
-            let whole = self.rest;
-            self.skip(n)?;
-            let mut inner = Cursor { rest: &whole[..n as usize], opcode: self.opcode };
-            while !inner.rest.is_empty() {
-                inner.prefixed(4)?;
+            let start = self.rest.len();
+            while ((start - self.rest.len()) as u64) < n && !self.rest.is_empty() {
+                self.prefixed(4)?;
+                self.prefixed(4)?;
             }
             Ok(())
         }
