@@ -3,8 +3,9 @@
 //! [`render()`] of the trajectory, and [`compare()`] for checking that two runs match.
 //!
 //! Logs are MCAP files with JSON messages described by `jsonschema` schemas, in zstd
-//! chunks, written by the crate's own chunk writer (one zstd call per 1 MiB chunk; see
-//! `docs/logs.md`, "Cost") and read with the `mcap` crate. Geometry uses Foxglove's well-known schemas so the Foxglove app draws it;
+//! chunks, written by the crate's own chunk writer (one zstd call per 1 MiB chunk, on a
+//! writer thread; see `docs/logs.md`, "Cost") and read with the `mcap` crate. Geometry
+//! uses Foxglove's well-known schemas so the Foxglove app draws it;
 //! learning events use mmq's own (`mmq.*`). Topics, units and the time base are
 //! documented in `docs/logs.md` and in [`recorder`].
 //!
@@ -19,6 +20,7 @@ pub mod reader;
 pub mod recorder;
 pub mod render;
 pub mod summary;
+mod writer;
 
 pub use compare::{Mismatch, compare};
 pub use error::LogError;

@@ -1,5 +1,7 @@
 //! A small MCAP writer for the recorder's hot path: JSON messages appended to an in-memory
-//! chunk, each chunk compressed in one zstd call when it is full or flushed.
+//! chunk ([`OpenChunk`], on the recording thread), each chunk compressed in one zstd call
+//! when it is full or flushed ([`McapOut::write_chunk`], on the writer thread or inline;
+//! see `writer.rs`).
 //!
 //! It writes what the `mcap` crate's writer writes (same records, same layout: chunks with
 //! a message index per channel after each, a summary section with schemas, channels,
@@ -19,10 +21,59 @@ use mcap::records::op;
 /// Compression of the chunks (zstd, the only codec mmq logs use).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct ChunkOptions {
-    /// A chunk is closed once it holds this many uncompressed bytes.
-    pub chunk_size: usize,
     /// zstd level (1 is zstd's fastest standard level; negative levels trade size for speed).
     pub level: i32,
+}
+
+/// The chunk being filled: its message records, uncompressed, and their message index
+/// entries. Filled by [`OpenChunk::message`]; written (and emptied) by
+/// [`McapOut::write_chunk`]; the same buffers are reused from chunk to chunk.
+#[derive(Debug)]
+pub(crate) struct OpenChunk {
+    /// Message records, uncompressed.
+    records: Vec<u8>,
+    /// Message index entries (log time, offset in the chunk), by channel id.
+    entries: Vec<Vec<(u64, u64)>>,
+}
+
+impl OpenChunk {
+    /// An empty chunk for `channels` channels (ids 1..=channels), with room for
+    /// `capacity` bytes of records.
+    pub fn new(capacity: usize, channels: usize) -> Self {
+        Self { records: Vec::with_capacity(capacity), entries: vec![Vec::new(); channels + 1] }
+    }
+
+    /// Uncompressed bytes so far.
+    pub fn len(&self) -> usize {
+        self.records.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.records.is_empty()
+    }
+
+    /// Appends a message (publish time = log time). `channel` must be a registered id
+    /// (at most the `channels` given to [`Self::new`]).
+    pub fn message(&mut self, channel: u16, sequence: u32, log_time: u64, data: &[u8]) {
+        let offset = self.records.len() as u64;
+        let mut head = [0u8; 31];
+        head[0] = op::MESSAGE;
+        head[1..9].copy_from_slice(&(22 + data.len() as u64).to_le_bytes());
+        head[9..11].copy_from_slice(&channel.to_le_bytes());
+        head[11..15].copy_from_slice(&sequence.to_le_bytes());
+        head[15..23].copy_from_slice(&log_time.to_le_bytes());
+        head[23..31].copy_from_slice(&log_time.to_le_bytes());
+        self.records.extend_from_slice(&head);
+        self.records.extend_from_slice(data);
+        self.entries[usize::from(channel)].push((log_time, offset));
+    }
+
+    fn clear(&mut self) {
+        self.records.clear();
+        for e in &mut self.entries {
+            e.clear();
+        }
+    }
 }
 
 /// Little-endian record building.
@@ -89,13 +140,7 @@ pub(crate) struct McapOut<W: Write> {
     pos: u64,
     /// CRC of the data section so far.
     data_crc: crc32fast::Hasher,
-    opts: ChunkOptions,
     zstd: zstd::bulk::Compressor<'static>,
-    /// Records of the open chunk, uncompressed.
-    chunk: Vec<u8>,
-    chunk_bounds: Option<(u64, u64)>,
-    /// Message index entries (log time, offset in the chunk) of the open chunk, by channel id.
-    chunk_entries: Vec<Vec<(u64, u64)>>,
     compressed: Vec<u8>,
     scratch: Vec<u8>,
     schemas: Vec<Schema>,
@@ -119,11 +164,7 @@ impl<W: Write> McapOut<W> {
             out,
             pos: 0,
             data_crc: crc32fast::Hasher::new(),
-            opts,
             zstd: zstd::bulk::Compressor::new(opts.level)?,
-            chunk: Vec::with_capacity(opts.chunk_size + (64 << 10)),
-            chunk_bounds: None,
-            chunk_entries: Vec::new(),
             compressed: Vec::new(),
             scratch: Vec::with_capacity(256),
             schemas: Vec::new(),
@@ -172,7 +213,6 @@ impl<W: Write> McapOut<W> {
         let s = Schema { id, name: name.into(), encoding: encoding.into(), data: data.into() };
         let mut body = Vec::new();
         schema_body(&mut body, &s);
-        self.finish_chunk()?;
         self.top_level(op::SCHEMA, &body)?;
         self.schemas.push(s);
         Ok(id)
@@ -184,48 +224,35 @@ impl<W: Write> McapOut<W> {
         let c = Channel { id, schema_id, topic: topic.into(), message_encoding: message_encoding.into() };
         let mut body = Vec::new();
         channel_body(&mut body, &c);
-        self.finish_chunk()?;
         self.top_level(op::CHANNEL, &body)?;
         self.channels.push(c);
-        let n = usize::from(id) + 1;
-        self.counts.resize(n, 0);
-        self.chunk_entries.resize_with(n, Vec::new);
+        self.counts.resize(usize::from(id) + 1, 0);
         Ok(id)
     }
 
-    /// Appends a message (publish time = log time) to the open chunk; closes the chunk
-    /// when it is full. `channel` must come from [`Self::add_channel`].
-    pub fn message(&mut self, channel: u16, sequence: u32, log_time: u64, data: &[u8]) -> io::Result<()> {
-        let c = usize::from(channel);
-        let offset = self.chunk.len() as u64;
-        let mut head = [0u8; 31];
-        head[0] = op::MESSAGE;
-        head[1..9].copy_from_slice(&(22 + data.len() as u64).to_le_bytes());
-        head[9..11].copy_from_slice(&channel.to_le_bytes());
-        head[11..15].copy_from_slice(&sequence.to_le_bytes());
-        head[15..23].copy_from_slice(&log_time.to_le_bytes());
-        head[23..31].copy_from_slice(&log_time.to_le_bytes());
-        self.chunk.extend_from_slice(&head);
-        self.chunk.extend_from_slice(data);
-        self.chunk_entries[c].push((log_time, offset));
-        self.counts[c] += 1;
-        self.chunk_bounds = Some(match self.chunk_bounds {
-            None => (log_time, log_time),
-            Some((a, b)) => (a.min(log_time), b.max(log_time)),
-        });
-        if self.chunk.len() >= self.opts.chunk_size {
-            self.finish_chunk()?;
-        }
-        Ok(())
+    /// Channels registered so far (their ids are 1..=this).
+    pub fn channel_count(&self) -> usize {
+        self.channels.len()
     }
 
-    /// Compresses and writes the open chunk (if it holds anything) and its message indexes.
-    fn finish_chunk(&mut self) -> io::Result<()> {
-        let Some((start, end)) = self.chunk_bounds.take() else { return Ok(()) };
-        let uncompressed_crc = crc32fast::hash(&self.chunk);
+    /// Compresses and writes `chunk` (if it holds anything) and its message indexes, and
+    /// empties it.
+    pub fn write_chunk(&mut self, chunk: &mut OpenChunk) -> io::Result<()> {
+        if chunk.is_empty() {
+            return Ok(());
+        }
+        let (mut start, mut end) = (u64::MAX, 0);
+        for (c, entries) in chunk.entries.iter().enumerate() {
+            for &(t, _) in entries {
+                start = start.min(t);
+                end = end.max(t);
+            }
+            self.counts[c] += entries.len() as u64;
+        }
+        let uncompressed_crc = crc32fast::hash(&chunk.records);
         self.compressed.clear();
-        self.compressed.reserve(zstd::zstd_safe::compress_bound(self.chunk.len()));
-        self.zstd.compress_to_buffer(self.chunk.as_slice(), &mut self.compressed)?;
+        self.compressed.reserve(zstd::zstd_safe::compress_bound(chunk.records.len()));
+        self.zstd.compress_to_buffer(chunk.records.as_slice(), &mut self.compressed)?;
         let chunk_start = self.pos;
         let mut head = std::mem::take(&mut self.scratch);
         head.clear();
@@ -233,7 +260,7 @@ impl<W: Write> McapOut<W> {
         head.u64(8 + 8 + 8 + 4 + (4 + 4) + 8 + self.compressed.len() as u64);
         head.u64(start);
         head.u64(end);
-        head.u64(self.chunk.len() as u64);
+        head.u64(chunk.records.len() as u64);
         head.u32(uncompressed_crc);
         head.str("zstd");
         head.u64(self.compressed.len() as u64);
@@ -249,14 +276,13 @@ impl<W: Write> McapOut<W> {
         let index_start = self.pos;
         let mut offsets: Vec<(u16, u64)> = Vec::new();
         let mut body = std::mem::take(&mut self.scratch);
-        for c in 0..self.chunk_entries.len() {
-            if self.chunk_entries[c].is_empty() {
+        for (c, entries) in chunk.entries.iter().enumerate() {
+            if entries.is_empty() {
                 continue;
             }
             offsets.push((c as u16, self.pos));
             body.clear();
             body.push(op::MESSAGE_INDEX);
-            let entries = &self.chunk_entries[c];
             body.u64(2 + 4 + 16 * entries.len() as u64);
             body.u16(c as u16);
             body.u32(16 * entries.len() as u32);
@@ -268,7 +294,6 @@ impl<W: Write> McapOut<W> {
                 self.scratch = body;
                 return Err(e);
             }
-            self.chunk_entries[c].clear();
         }
         self.scratch = body;
         let index_length = self.pos - index_start;
@@ -285,30 +310,28 @@ impl<W: Write> McapOut<W> {
         ci.u64(index_length);
         ci.str("zstd");
         ci.u64(self.compressed.len() as u64);
-        ci.u64(self.chunk.len() as u64);
+        ci.u64(chunk.records.len() as u64);
         record(&mut self.chunk_indexes, op::CHUNK_INDEX, &ci);
         self.chunk_count += 1;
         self.bounds = Some(match self.bounds {
             None => (start, end),
             Some((a, b)) => (a.min(start), b.max(end)),
         });
-        self.chunk.clear();
+        chunk.clear();
         Ok(())
     }
 
-    /// Closes the open chunk and flushes `out`.
+    /// Flushes `out`.
     pub fn flush(&mut self) -> io::Result<()> {
-        self.finish_chunk()?;
         self.out.flush()
     }
 
-    /// Writes a metadata record (after closing the open chunk).
+    /// Writes a metadata record.
     pub fn metadata(
         &mut self,
         name: &str,
         map: &std::collections::BTreeMap<String, String>,
     ) -> io::Result<()> {
-        self.finish_chunk()?;
         let mut body = Vec::new();
         body.str(name);
         body.str_map(map);
@@ -323,9 +346,8 @@ impl<W: Write> McapOut<W> {
         Ok(())
     }
 
-    /// Writes an attachment record (after closing the open chunk).
+    /// Writes an attachment record.
     pub fn attach(&mut self, name: &str, media_type: &str, log_time: u64, data: &[u8]) -> io::Result<()> {
-        self.finish_chunk()?;
         let mut body = Vec::new();
         body.u64(log_time);
         body.u64(log_time); // create time
@@ -350,10 +372,9 @@ impl<W: Write> McapOut<W> {
         Ok(())
     }
 
-    /// Closes the open chunk, writes the data end, the summary section, the footer and the
-    /// end magic, flushes, and returns `out`.
+    /// Writes the data end, the summary section, the footer and the end magic, flushes,
+    /// and returns `out`.
     pub fn finish(mut self) -> io::Result<W> {
-        self.finish_chunk()?;
         let mut body = Vec::new();
         body.u32(self.data_crc.clone().finalize());
         self.top_level(op::DATA_END, &body)?;

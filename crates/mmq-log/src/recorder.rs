@@ -19,6 +19,11 @@
 //! steps and every `flush_interval` of wall-clock time, so a killed run leaves a readable
 //! prefix; [`McapRecorder::finish`] (called by `on_finish`, and by `Drop` as a last
 //! resort) writes the summary section that makes the file complete.
+//!
+//! Messages are built and put into chunks on the recording thread; closed chunks are
+//! compressed and written by a writer thread of the recorder's own (see
+//! [`RecorderConfig::writer_thread`]), which a flush waits for and `finish` joins. The
+//! file is the same byte for byte with or without that thread.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -34,6 +39,7 @@ use serde::Serialize;
 use crate::error::LogError;
 use crate::mcap_out::{ChunkOptions, McapOut};
 use crate::messages::{self as m, CHANNELS, LOG_CHANNEL};
+use crate::writer::{Failure, LogWriter};
 
 /// Which steps are recorded: the first `first` steps and the last `last` steps of a run
 /// of `total` steps (everything else is skipped, except heat maps and the running reward
@@ -80,6 +86,10 @@ pub struct RecorderConfig {
     /// zstd level of the chunks (default 1, [`Self::DEFAULT_COMPRESSION_LEVEL`]); negative
     /// levels compress faster into larger files, higher ones slower into smaller files.
     pub compression_level: i32,
+    /// Compress and write chunks on a thread of the recorder's own (default `true`), so
+    /// the run waits for neither zstd nor the disk; `false` does it on the recording
+    /// thread. The file is the same byte for byte either way.
+    pub writer_thread: bool,
 }
 
 impl RecorderConfig {
@@ -103,6 +113,7 @@ impl RecorderConfig {
             heatmaps: true,
             notes: true,
             compression_level: Self::DEFAULT_COMPRESSION_LEVEL,
+            writer_thread: true,
         }
     }
 
@@ -224,7 +235,7 @@ struct Run {
 /// [`McapRecorder::take_error`]) and recording stops there.
 pub struct McapRecorder {
     config: RecorderConfig,
-    writer: Option<McapOut<BufWriter<File>>>,
+    writer: Option<LogWriter<BufWriter<File>>>,
     channel_ids: [u16; NCH],
     sequence: [u32; NCH],
     digests: [TopicStats; NCH],
@@ -301,7 +312,7 @@ impl McapRecorder {
         let mut writer = McapOut::new(
             BufWriter::with_capacity(1 << 16, file),
             &library,
-            ChunkOptions { chunk_size: CHUNK_SIZE, level: config.compression_level },
+            ChunkOptions { level: config.compression_level },
         )
         .map_err(|e| mcap_err("write the MCAP header", e))?;
         let mut channel_ids = [0u16; NCH];
@@ -317,6 +328,8 @@ impl McapRecorder {
             *id = writer.add_channel(sid, topic, "json").map_err(|e| mcap_err("register a channel", e))?;
             stats.topics.insert(topic.to_string(), TopicStats { count: 0, digest: DIGEST_START });
         }
+        let writer = LogWriter::new(writer, CHUNK_SIZE, config.writer_thread)
+            .map_err(|e| mcap_err("start the log writer thread", e))?;
         Ok(Self {
             config,
             writer: Some(writer),
@@ -363,7 +376,7 @@ impl McapRecorder {
         self.error.take()
     }
 
-    fn fail(&mut self, action: &'static str, source: std::io::Error) {
+    fn fail(&mut self, Failure { action, source }: Failure) {
         if self.error.is_none() {
             self.error = Some(LogError::Mcap {
                 path: self.config.path.clone(),
@@ -380,7 +393,7 @@ impl McapRecorder {
         let Some(w) = self.writer.as_mut() else { return };
         let i = ch as usize;
         if let Err(e) = w.message(self.channel_ids[i], self.sequence[i], log_time, &self.buf) {
-            self.fail("write a message", e);
+            self.fail(e);
             return;
         }
         self.sequence[i] = self.sequence[i].wrapping_add(1);
@@ -469,7 +482,7 @@ impl McapRecorder {
         if let Some(w) = self.writer.as_mut()
             && let Err(e) = w.flush()
         {
-            self.fail("flush the log", e);
+            self.fail(e);
         }
     }
 
@@ -513,13 +526,13 @@ impl McapRecorder {
             .map(|(k, v)| (k.to_string(), v))
             .collect();
             let path = self.config.path.clone();
-            let mcap_err =
-                |action, e| LogError::Mcap { path: path.clone(), action, source: mcap::McapError::Io(e) };
-            let result = w
-                .metadata("end", &end)
-                .map_err(|e| mcap_err("write the end record", e))
-                .and_then(|()| w.finish().map_err(|e| mcap_err("finish the log", e)))
-                .and_then(|mut inner| {
+            let mcap_err = |Failure { action, source }| LogError::Mcap {
+                path: path.clone(),
+                action,
+                source: mcap::McapError::Io(source),
+            };
+            let result =
+                w.metadata("end", &end).and_then(|()| w.finish()).map_err(mcap_err).and_then(|mut inner| {
                     inner.flush().map_err(|source| LogError::Io {
                         path: path.clone(),
                         action: "write the log",
@@ -760,7 +773,7 @@ impl Observer for McapRecorder {
                     w.attach("config.toml", "application/toml", start_ns, info.config_toml.as_bytes())
                 });
             if let Err(e) = r {
-                self.fail("write the run metadata", e);
+                self.fail(e);
             }
         }
         self.run =
