@@ -40,8 +40,10 @@
 
 use mmq_core::DelayDist;
 
+/// Penalty of a pair feature relative to a state feature (state features on).
+const PAIR_PENALTY: f64 = 1.25;
 /// Reweighted passes of the pmf fit per refit.
-const WEIGHTED_PASSES: usize = 1;
+const WEIGHTED_PASSES: usize = 3;
 /// Iterations of the projected-gradient solve for p.
 const QP_ITERS: usize = 300;
 /// Coordinate-descent sweeps for R (at most; stops when no estimate moves by 1e-12).
@@ -235,6 +237,8 @@ pub struct Deconvolver {
     start: u64,
     next_refit: u64,
     refits: u64,
+    /// Refits at which the cold start (from the uniform pmf) won.
+    cold_wins: u64,
     snapshots: Vec<Snapshot>,
 }
 
@@ -276,6 +280,7 @@ impl Deconvolver {
             t: 0,
             start: 0,
             refits: 0,
+            cold_wins: 0,
             snapshots: Vec::new(),
         }
     }
@@ -405,20 +410,44 @@ impl Deconvolver {
     }
 
     /// Refits R̂ given p̂, then (when estimating) p̂ given R̂ and R̂ again.
+    ///
+    /// When estimating, a second alternation starts from the uniform pmf (a cold start)
+    /// and the fit with the lower penalised objective (D2) is kept: an alternation that
+    /// locked onto a wrong delay early (or found no reward at all) gets out again.
     pub fn refit(&mut self) {
         if self.pairs.is_empty() {
             return;
         }
-        self.fit_rewards();
+        // σ̂ from the previous fit (Σ r² before the first: an upper bound), shared by
+        // both starts so that their objectives compare.
+        let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
+        self.fit_rewards(sigma);
         if self.cfg.told.is_none() {
             self.fit_pmf();
-            self.fit_rewards();
+            let warm_objective = self.fit_rewards(sigma);
+            let warm =
+                (self.pmf.clone(), self.r.clone(), self.r_pair.clone(), self.r_state.clone(), self.rss);
+            let k_n = self.cfg.max_delay + 1;
+            self.pmf = vec![1.0 / k_n as f64; k_n];
+            self.r
+                .iter_mut()
+                .chain(self.r_pair.iter_mut())
+                .chain(self.r_state.iter_mut())
+                .for_each(|x| *x = 0.0);
+            self.fit_rewards(sigma);
+            self.fit_pmf();
+            if self.fit_rewards(sigma) < warm_objective {
+                self.cold_wins += 1;
+            } else {
+                (self.pmf, self.r, self.r_pair, self.r_state, self.rss) = warm;
+            }
         }
         self.refits += 1;
     }
 
-    /// R given p: lasso by coordinate descent on (G, b), warm-started.
-    fn fit_rewards(&mut self) {
+    /// R given p: lasso by coordinate descent on (G, b), warm-started. Returns the
+    /// penalised objective (D2) at the fit (½ RSS + penalties).
+    fn fit_rewards(&mut self, sigma: f64) -> f64 {
         let n = self.pairs.len();
         let cap = self.cap;
         let k_n = self.cfg.max_delay + 1;
@@ -466,15 +495,13 @@ impl Deconvolver {
         }
         let bvec: Vec<f64> = (0..n).map(|i| (0..k_n).map(|k| p[k] * self.b[k * cap + i]).sum()).collect();
         let ridge = self.cfg.reward_prior * a[0];
-        // σ̂ from the previous fit (Σ r² before the first: an upper bound).
-        let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
         // κ × the universal threshold √(2 ln m) of m features (Donoho & Johnstone): with
         // hundreds of pairs a plain 2σ test would pass several spurious rewards per fit.
         let m = (self.pairs.len() + self.pairs.len() / self.num_actions.max(1)).max(2) as f64;
         let kappa = self.cfg.significance * (2.0 * m.ln()).sqrt() * sigma;
         let lasso = self.cfg.lasso;
-        let soft = |z: f64, info: f64| {
-            let thr = lasso * info + kappa * info.sqrt();
+        let soft = |z: f64, info: f64, factor: f64| {
+            let thr = factor * (lasso * info + kappa * info.sqrt());
             if z > thr {
                 (z - thr) / (info + ridge)
             } else if z < -thr {
@@ -483,6 +510,10 @@ impl Deconvolver {
                 0.0
             }
         };
+        // With state features, a pair's own reward pays PAIR_PENALTY × the state's penalty:
+        // of two explanations that fit equally (a goal state, or the only pair that enters
+        // it), the coarser one wins.
+        let pair_factor = if self.cfg.state_rewards { PAIR_PENALTY } else { 1.0 };
         // Groups: the compact pairs of each state (state features, when enabled).
         let a_n = self.num_actions;
         let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
@@ -521,7 +552,7 @@ impl Deconvolver {
                 // The state feature: one value shared by every action of the state.
                 if self.cfg.state_rewards && members.len() > 1 && gss[gi] > 0.0 {
                     let z: f64 = members.iter().map(|&i| bvec[i] - gr[i]).sum::<f64>() + gss[gi] * rs[gi];
-                    let d = soft(z, gss[gi]) - rs[gi];
+                    let d = soft(z, gss[gi], 1.0) - rs[gi];
                     if d != 0.0 {
                         rs[gi] += d;
                         for &i in members {
@@ -540,7 +571,7 @@ impl Deconvolver {
                         continue;
                     }
                     let z = bvec[i] - gr[i] + gii * rp[i];
-                    let d = soft(z, gii) - rp[i];
+                    let d = soft(z, gii, pair_factor) - rp[i];
                     if d != 0.0 {
                         rp[i] += d;
                         r[i] += d;
@@ -558,14 +589,20 @@ impl Deconvolver {
         // RSS = Σ r² − 2 Rᵀb + Rᵀ G R
         let rb: f64 = r.iter().zip(&bvec).map(|(x, y)| x * y).sum();
         let rgr: f64 = r.iter().zip(&gr).map(|(x, y)| x * y).sum();
-        self.rss = Some(self.sum_r2 - 2.0 * rb + rgr);
+        let rss = self.sum_r2 - 2.0 * rb + rgr;
+        self.rss = Some(rss);
+        let thr = |info: f64, factor: f64| factor * (lasso * info + kappa * info.sqrt());
+        let mut penalty = 0.0;
         for (i, &x) in self.pairs.iter().enumerate() {
             self.r[x as usize] = r[i];
             self.r_pair[x as usize] = rp[i];
+            penalty += thr(g[i * n + i], pair_factor) * rp[i].abs() + 0.5 * ridge * rp[i] * rp[i];
         }
         for (gi, (st, _)) in groups.iter().enumerate() {
             self.r_state[*st] = rs[gi];
+            penalty += thr(gss[gi], 1.0) * rs[gi].abs() + 0.5 * ridge * rs[gi] * rs[gi];
         }
+        0.5 * rss + penalty
     }
 
     /// p given R: FISTA over the simplex on ½ pᵀAp − cᵀp.
@@ -689,6 +726,7 @@ impl Deconvolver {
             ("delay/mean_est".to_string(), pmf_mean(&self.pmf)),
             ("delay/median_est".to_string(), pmf_median(&self.pmf)),
             ("delay/refits".to_string(), self.refits as f64),
+            ("delay/cold_start_wins".to_string(), self.cold_wins as f64),
             ("delay/estimated".to_string(), f64::from(u8::from(self.estimates_delay()))),
             ("learner/pairs_seen".to_string(), self.pairs.len() as f64),
         ];
