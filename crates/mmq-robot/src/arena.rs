@@ -104,37 +104,73 @@ pub(crate) const ROBOT_USER_DATA: u128 = 0;
 impl Scene {
     /// Builds the arena's walls and the robot at `(x, y)` with heading `theta`, at rest.
     pub fn new(walls: &[Wall], cfg: &RobotConfig, x: f64, y: f64, theta: f64) -> Scene {
-        let mut phys = PhysicsWorld::new();
-        phys.gravity = Vector::ZERO;
-        phys.integration_parameters.dt = cfg.dt_s as Real;
-        phys.integration_parameters.contact_recycling = false;
-        for (i, w) in walls.iter().enumerate() {
-            let c = ColliderBuilder::cuboid(w.hx as Real, w.hy as Real)
-                .translation(Vector::new(w.cx as Real, w.cy as Real))
-                .friction(cfg.wall_friction as Real)
-                .restitution(0.0)
-                .user_data(i as u128 + 1);
-            phys.insert_collider(c, None);
-        }
-        let body = RigidBodyBuilder::dynamic()
-            .translation(Vector::new(x as Real, y as Real))
-            .rotation(theta as Real)
-            .can_sleep(false);
-        let coll = ColliderBuilder::ball(cfg.radius_m as Real)
-            .mass(cfg.mass_kg as Real)
-            .friction(cfg.wall_friction as Real)
-            .restitution(0.0)
-            .active_events(ActiveEvents::COLLISION_EVENTS)
-            .user_data(ROBOT_USER_DATA);
-        let (robot, robot_collider) = phys.insert(body, coll);
+        let mut phys = new_world(walls, cfg, None);
+        let (robot, robot_collider) = insert_robot(&mut phys, cfg, x, y, theta, None);
         Scene { phys, robot, robot_collider }
     }
 
     /// The wall index of a collider (None for the robot).
     pub fn wall_of(&self, h: ColliderHandle) -> Option<usize> {
-        let ud = self.phys.colliders.get(h)?.user_data;
-        (ud != ROBOT_USER_DATA).then(|| (ud - 1) as usize)
+        wall_of(&self.phys, h)
     }
+}
+
+/// The wall index of a collider of a world built by [`new_world`] (None for a robot).
+pub(crate) fn wall_of(phys: &PhysicsWorld, h: ColliderHandle) -> Option<usize> {
+    let ud = phys.colliders.get(h)?.user_data;
+    (ud != ROBOT_USER_DATA).then(|| (ud - 1) as usize)
+}
+
+/// A rapier world (no gravity, the robot's physics step, no contact recycling) holding
+/// the arena's fixed walls, in `walls` order; `groups`: their collision groups (rapier's
+/// default when None).
+pub(crate) fn new_world(
+    walls: &[Wall],
+    cfg: &RobotConfig,
+    groups: Option<InteractionGroups>,
+) -> PhysicsWorld {
+    let mut phys = PhysicsWorld::new();
+    phys.gravity = Vector::ZERO;
+    phys.integration_parameters.dt = cfg.dt_s as Real;
+    phys.integration_parameters.contact_recycling = false;
+    for (i, w) in walls.iter().enumerate() {
+        let mut c = ColliderBuilder::cuboid(w.hx as Real, w.hy as Real)
+            .translation(Vector::new(w.cx as Real, w.cy as Real))
+            .friction(cfg.wall_friction as Real)
+            .restitution(0.0)
+            .user_data(i as u128 + 1);
+        if let Some(g) = groups {
+            c = c.collision_groups(g);
+        }
+        phys.insert_collider(c, None);
+    }
+    phys
+}
+
+/// Inserts a robot at `(x, y)` with heading `theta`, at rest; `groups`: its collider's
+/// collision groups (rapier's default when None).
+pub(crate) fn insert_robot(
+    phys: &mut PhysicsWorld,
+    cfg: &RobotConfig,
+    x: f64,
+    y: f64,
+    theta: f64,
+    groups: Option<InteractionGroups>,
+) -> (RigidBodyHandle, ColliderHandle) {
+    let body = RigidBodyBuilder::dynamic()
+        .translation(Vector::new(x as Real, y as Real))
+        .rotation(theta as Real)
+        .can_sleep(false);
+    let mut coll = ColliderBuilder::ball(cfg.radius_m as Real)
+        .mass(cfg.mass_kg as Real)
+        .friction(cfg.wall_friction as Real)
+        .restitution(0.0)
+        .active_events(ActiveEvents::COLLISION_EVENTS)
+        .user_data(ROBOT_USER_DATA);
+    if let Some(g) = groups {
+        coll = coll.collision_groups(g);
+    }
+    phys.insert(body, coll)
 }
 
 #[cfg(test)]

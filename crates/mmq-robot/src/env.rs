@@ -12,7 +12,9 @@ use mmq_core::{
 };
 use rand::RngExt;
 use rand_distr::{Distribution, Normal};
-use rapier2d::prelude::{CollisionEvent, Real, Rotation, Vector};
+use rapier2d::prelude::{
+    ColliderHandle, CollisionEvent, IntegrationParameters, PhysicsWorld, Real, RigidBody, Rotation, Vector,
+};
 
 use crate::arena::{Collector, Scene, Wall, walls};
 use crate::config::{ActionSet, RobotConfig, RobotError};
@@ -35,15 +37,15 @@ const RUNAWAY_FACTOR: f64 = 10.0;
 
 /// Counters since the last reset.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-struct Counts {
-    physics_steps: u64,
-    rapier_steps: u64,
-    primitives: u64,
-    contacts: u64,
-    reached: u64,
-    bumped: u64,
-    timed_out: u64,
-    goal: u64,
+pub(crate) struct Counts {
+    pub physics_steps: u64,
+    pub rapier_steps: u64,
+    pub primitives: u64,
+    pub contacts: u64,
+    pub reached: u64,
+    pub bumped: u64,
+    pub timed_out: u64,
+    pub goal: u64,
 }
 
 /// One motion primitive.
@@ -67,38 +69,46 @@ enum Phase {
     BackOff,
 }
 
-/// The robot environment.
-pub struct RobotEnv {
-    world: World,
-    cfg: RobotConfig,
-    walls: Vec<Wall>,
-    scene: Scene,
-    collector: Collector,
-    drive: Drive,
+/// Everything of one robot but its rapier body: configuration, drive, controller
+/// state, noise stream, clock, counters and trace. [`RobotEnv`] owns one with its own
+/// rapier world; [`crate::MultiArena`] owns many whose bodies share one world. Methods
+/// that need the body take it as an argument.
+pub(crate) struct Core {
+    pub world: World,
+    pub cfg: RobotConfig,
+    pub walls: Vec<Wall>,
+    pub drive: Drive,
     limits: Limits,
     rng: Rng,
     free_non_goal: Vec<usize>,
-    timeout_s: f64,
-    time_s: f64,
-    decision_step: u64,
-    counts: Counts,
-    trace_period: Option<f64>,
-    trace: StepTrace,
+    pub timeout_s: f64,
+    pub time_s: f64,
+    pub decision_step: u64,
+    pub counts: Counts,
+    pub trace_period: Option<f64>,
+    pub trace: StepTrace,
     next_sample_s: f64,
     /// Set by a physics step: a robot–wall contact started during it.
-    started_now: bool,
+    pub started_now: bool,
     /// Set by a physics step: the robot pressed on a wall during it.
-    pressing_now: bool,
+    pub pressing_now: bool,
+}
+
+/// The robot environment.
+pub struct RobotEnv {
+    core: Core,
+    scene: Scene,
+    collector: Collector,
 }
 
 impl fmt::Debug for RobotEnv {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.debug_struct("RobotEnv")
-            .field("world", &self.world.name)
-            .field("cfg", &self.cfg)
-            .field("time_s", &self.time_s)
-            .field("decision_step", &self.decision_step)
-            .field("counts", &self.counts)
+            .field("world", &self.core.world.name)
+            .field("cfg", &self.core.cfg)
+            .field("time_s", &self.core.time_s)
+            .field("decision_step", &self.core.decision_step)
+            .field("counts", &self.core.counts)
             .finish_non_exhaustive()
     }
 }
@@ -128,17 +138,102 @@ fn move_index(m: Move) -> usize {
     Move::ALL.iter().position(|&x| x == m).unwrap_or(0)
 }
 
-impl RobotEnv {
-    /// Builds the arena of `world` and a robot configured by `cfg` (validated against the
-    /// world). Call [`Env::reset`] before stepping; until then the robot waits at rest
-    /// at the centre of the respawn cell, facing north.
-    pub fn new(world: &World, cfg: RobotConfig) -> Result<RobotEnv, RobotError> {
+/// The robot's pose as f64: x, y, heading.
+pub(crate) fn raw_pose(rb: &RigidBody) -> (f64, f64, f64) {
+    let t = rb.translation();
+    (t.x as f64, t.y as f64, rb.rotation().angle() as f64)
+}
+
+/// How a step begins.
+pub(crate) enum Begin {
+    /// It ended without physics (the goal's teleport): finish it with this event.
+    Done(Event),
+    /// A primitive runs.
+    Run(PrimRun),
+}
+
+/// What a running primitive asks for next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Next {
+    /// One physics step under this commanded twist (v, ω).
+    Command(f64, f64),
+    /// The primitive has ended.
+    End(Event),
+}
+
+/// The controller state of a running primitive, resumable one physics step at a time.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PrimRun {
+    ox: f64,
+    oy: f64,
+    t0: f64,
+    phase: Phase,
+    contact_at: Option<f64>,
+}
+
+impl PrimRun {
+    /// The command for the next physics step, or the primitive's end.
+    pub fn next(&mut self, core: &Core, rb: &RigidBody) -> Next {
+        loop {
+            if core.time_s - self.t0 >= core.timeout_s {
+                return Next::End(if self.contact_at.is_some() { Event::WallBump } else { Event::TimedOut });
+            }
+            let (x, y, th) = raw_pose(rb);
+            let (v, w) = match self.phase {
+                Phase::Turn { heading, then } => {
+                    let err = wrap(heading - th);
+                    if err.abs() < core.cfg.heading_tolerance_rad {
+                        self.phase = match (then, self.contact_at) {
+                            (_, Some(_)) => Phase::BackOff,
+                            (Some((tx, ty)), None) => Phase::Drive { tx, ty },
+                            (None, None) => return Next::End(Event::Moved),
+                        };
+                        continue;
+                    }
+                    controller::turn(err, &core.limits)
+                }
+                Phase::Drive { tx, ty } => {
+                    let (v, w, d) = controller::drive_to(x, y, th, tx, ty, &core.limits);
+                    if d < core.cfg.position_tolerance_m {
+                        if self.contact_at.is_some() {
+                            self.phase = Phase::BackOff;
+                            continue;
+                        }
+                        return Next::End(Event::Moved);
+                    }
+                    (v, w)
+                }
+                Phase::BackOff => {
+                    let (v, w, d) = controller::drive_to(x, y, th, self.ox, self.oy, &core.limits);
+                    if d < core.cfg.position_tolerance_m {
+                        return Next::End(Event::WallBump);
+                    }
+                    (v, w)
+                }
+            };
+            return Next::Command(v, w);
+        }
+    }
+
+    /// After a physics step: bump bookkeeping from the core's contact flags.
+    pub fn after_physics(&mut self, core: &Core) {
+        if (core.started_now || core.pressing_now) && self.contact_at.is_none() {
+            self.contact_at = Some(core.time_s);
+        }
+        if let (Phase::Drive { .. }, Some(t)) = (self.phase, self.contact_at)
+            && (core.pressing_now || core.time_s - t >= BUMP_DWELL_S)
+        {
+            self.phase = Phase::BackOff;
+        }
+    }
+}
+
+impl Core {
+    pub fn new(world: &World, cfg: RobotConfig) -> Result<Core, RobotError> {
         cfg.validate_for_world(world)?;
         let walls = walls(world);
-        let (x, y) = world.cell_center(world.respawn);
-        let scene = Scene::new(&walls, &cfg, x, y, FRAC_PI_2);
         let free_non_goal = world.free_cells().filter(|&c| c != world.goal).collect();
-        Ok(RobotEnv {
+        Ok(Core {
             world: world.clone(),
             limits: Limits {
                 v_max: cfg.max_speed_mps,
@@ -150,8 +245,6 @@ impl RobotEnv {
             timeout_s: cfg.timeout_s(world.cell_size),
             cfg,
             walls,
-            scene,
-            collector: Collector::default(),
             rng: rng_from_seed(0),
             free_non_goal,
             time_s: 0.0,
@@ -165,55 +258,34 @@ impl RobotEnv {
         })
     }
 
-    /// [`RobotEnv::new`] with the world's own configuration ([`RobotConfig::from_world`]).
-    pub fn from_world(world: &World) -> Result<RobotEnv, RobotError> {
-        RobotEnv::new(world, RobotConfig::from_world(world)?)
+    pub fn num_states(&self) -> usize {
+        match self.cfg.actions {
+            ActionSet::Moves => self.world.num_cells(),
+            ActionSet::Heading => self.world.num_cells() * 4,
+        }
     }
 
-    /// The resolved configuration.
-    pub fn config(&self) -> &RobotConfig {
-        &self.cfg
+    pub fn num_actions(&self) -> usize {
+        match self.cfg.actions {
+            ActionSet::Moves => 4,
+            ActionSet::Heading => 3,
+        }
     }
 
-    /// The arena's walls, in collider order (names as in contact reports).
-    pub fn walls(&self) -> &[Wall] {
-        &self.walls
+    pub fn state_cell(&self, state: State) -> usize {
+        match self.cfg.actions {
+            ActionSet::Moves => state,
+            ActionSet::Heading => state / 4,
+        }
     }
 
-    /// The time-out of one primitive, seconds.
-    pub fn timeout_s(&self) -> f64 {
-        self.timeout_s
-    }
-
-    /// [`crate::features`] plus this environment's physics step, preset and action set.
-    pub fn features(&self) -> Vec<(String, String)> {
-        let mut f = crate::features();
-        f.push(("physics.dt_s".into(), self.cfg.dt_s.to_string()));
-        f.push(("robot.preset".into(), self.cfg.preset.name().into()));
-        f.push(("robot.actions".into(), format!("{:?}", self.cfg.actions).to_lowercase()));
-        f.push(("robot.noise".into(), if self.cfg.noise.is_some() { "on" } else { "off" }.into()));
-        f
-    }
-
-    /// Test hook: sets the robot's velocity (to provoke the runaway check).
-    #[doc(hidden)]
-    pub fn debug_set_velocity(&mut self, vx: f64, vy: f64) {
-        self.scene.phys.bodies[self.scene.robot].set_linvel(Vector::new(vx as Real, vy as Real), true);
-    }
-
-    fn raw_pose(&self) -> (f64, f64, f64) {
-        let rb = &self.scene.phys.bodies[self.scene.robot];
-        let t = rb.translation();
-        (t.x as f64, t.y as f64, rb.rotation().angle() as f64)
-    }
-
-    fn physics_error(&self, message: String) -> EnvError {
+    pub fn physics_error(&self, message: String) -> EnvError {
         EnvError::Physics { step: self.decision_step, message }
     }
 
     /// The free cell holding the robot's centre.
-    fn current_cell(&self) -> Result<usize, EnvError> {
-        let (x, y, _) = self.raw_pose();
+    pub fn current_cell(&self, rb: &RigidBody) -> Result<usize, EnvError> {
+        let (x, y, _) = raw_pose(rb);
         let cs = self.world.cell_size;
         let (w, h) = (self.world.width as f64 * cs, self.world.height as f64 * cs);
         // A centre a hair outside the arena (possible only while pressing on the
@@ -235,28 +307,127 @@ impl RobotEnv {
         Ok(cell)
     }
 
-    fn current_state(&self) -> Result<State, EnvError> {
-        let cell = self.current_cell()?;
+    pub fn current_state(&self, rb: &RigidBody) -> Result<State, EnvError> {
+        let cell = self.current_cell(rb)?;
         Ok(match self.cfg.actions {
             ActionSet::Moves => cell,
-            ActionSet::Heading => cell * 4 + move_index(nearest_move(self.raw_pose().2)),
+            ActionSet::Heading => cell * 4 + move_index(nearest_move(raw_pose(rb).2)),
         })
     }
 
-    fn sample_pose(&mut self) {
-        let p = self.pose();
+    pub fn pose(&self, rb: &RigidBody) -> PoseSample {
+        let (x, y, theta) = raw_pose(rb);
+        PoseSample { time_s: self.time_s, x, y, theta }
+    }
+
+    fn sample_pose(&mut self, rb: &RigidBody) {
+        let p = self.pose(rb);
         if self.trace.poses.last().is_none_or(|l| l.time_s != p.time_s) {
             self.trace.poses.push(p);
         }
     }
 
-    /// One physics step under the commanded twist, with contact bookkeeping and the
-    /// runaway checks. Allocates nothing unless tracing records a contact.
-    fn physics_step(&mut self, v_cmd: f64, w_cmd: f64) -> Result<(), EnvError> {
+    /// The start of an episode: draws the start cell (and heading) from the seed and
+    /// resets the clock, counters and drive. Returns the robot's start pose (x, y, θ);
+    /// the caller puts the body there, at rest.
+    pub fn reset(&mut self, seed: u64, start: Start) -> Result<(f64, f64, f64), EnvError> {
+        self.rng = rng_from_seed(seed);
+        let heading_states = self.cfg.actions == ActionSet::Heading;
+        let (cell, heading) = match start {
+            Start::World => {
+                let cell = match self.world.start {
+                    StartRule::Random => {
+                        if self.free_non_goal.is_empty() {
+                            self.world.respawn
+                        } else {
+                            self.free_non_goal[self.rng.random_range(0..self.free_non_goal.len())]
+                        }
+                    }
+                    StartRule::Respawn => self.world.respawn,
+                };
+                let h = if heading_states { Move::ALL[self.rng.random_range(0..4)] } else { Move::N };
+                (cell, h)
+            }
+            Start::Respawn => (self.world.respawn, Move::N),
+            Start::State(s) => {
+                if s >= self.num_states() {
+                    return Err(EnvError::InvalidStart(s));
+                }
+                let cell = self.state_cell(s);
+                if !self.world.is_free(cell) {
+                    return Err(EnvError::InvalidStart(s));
+                }
+                (cell, if heading_states { Move::ALL[s % 4] } else { Move::N })
+            }
+        };
+        let (x, y) = self.world.cell_center(cell);
+        self.drive = Drive::new(&self.cfg);
+        self.time_s = 0.0;
+        self.decision_step = 0;
+        self.counts = Counts::default();
+        self.trace.poses.clear();
+        self.trace.contacts.clear();
+        Ok((x, y, heading_of(heading)))
+    }
+
+    /// Begins a step: checks the action, counts it, and either teleports from the goal
+    /// (no physics) or starts the action's primitive.
+    pub fn begin_step(&mut self, action: Action, rb: &mut RigidBody) -> Result<Begin, EnvError> {
+        let n = self.num_actions();
+        if action >= n {
+            return Err(EnvError::InvalidAction { action, num_actions: n });
+        }
+        self.decision_step += 1;
+        self.trace.poses.clear();
+        self.trace.contacts.clear();
+        self.counts.primitives += 1;
+        if self.current_cell(rb)? == self.world.goal {
+            self.teleport_to_respawn(rb);
+            return Ok(Begin::Done(Event::Teleport));
+        }
+        let prim = match self.cfg.actions {
+            ActionSet::Moves => Primitive::Go(Move::ALL[action]),
+            ActionSet::Heading => match action {
+                0 => Primitive::Go(nearest_move(raw_pose(rb).2)),
+                1 => Primitive::Turn(1),
+                _ => Primitive::Turn(-1),
+            },
+        };
+        self.start_primitive(prim, rb).map(Begin::Run)
+    }
+
+    /// Ends a step with the primitive's event: reward, counters, the state.
+    pub fn finish_step(&mut self, event: Event, rb: &RigidBody) -> Result<Step, EnvError> {
+        let rewards = self.world.rewards;
+        let reward = match event {
+            Event::Teleport => {
+                self.counts.goal += 1;
+                rewards.goal
+            }
+            Event::WallBump => {
+                self.counts.bumped += 1;
+                rewards.wall
+            }
+            Event::TimedOut => {
+                self.counts.timed_out += 1;
+                rewards.step
+            }
+            _ => {
+                self.counts.reached += 1;
+                rewards.step
+            }
+        };
+        if self.trace_period.is_some() {
+            self.sample_pose(rb);
+        }
+        Ok(Step { state: self.current_state(rb)?, reward, event, terminated: false, truncated: false })
+    }
+
+    /// Steps 1–5 of a physics step: the drive's impulses go to the body; the clock
+    /// advances; the contact flags are cleared.
+    pub fn drive_body(&mut self, rb: &mut RigidBody, v_cmd: f64, w_cmd: f64) {
         self.drive.command(v_cmd, w_cmd);
-        let robot = self.scene.robot;
         {
-            let rb = &mut self.scene.phys.bodies[robot];
             let lv = rb.linvel();
             let s = BodyState {
                 theta: rb.rotation().angle() as f64,
@@ -272,43 +443,21 @@ impl RobotEnv {
         self.counts.physics_steps += 1;
         self.started_now = false;
         self.pressing_now = false;
-        if self.cfg.free_flight && self.free_flight_step() {
-            return self.check_runaway();
-        }
-        self.scene.phys.step_with_events(&(), &self.collector);
-        self.counts.rapier_steps += 1;
+    }
 
-        // Contact starts and stops reported by rapier.
-        let rc = self.scene.robot_collider;
-        if let Ok(mut events) = self.collector.events.lock() {
-            for e in events.drain(..) {
-                let other = match (e.collider1(), e.collider2()) {
-                    (a, b) if a == rc => b,
-                    (a, b) if b == rc => a,
-                    _ => continue,
-                };
-                let Some(wall) = self.scene.wall_of(other) else { continue };
-                let started = matches!(e, CollisionEvent::Started(..));
-                if started {
-                    self.started_now = true;
-                    self.counts.contacts += 1;
-                }
-                if self.trace_period.is_some() {
-                    self.trace.contacts.push(ContactSample {
-                        time_s: self.time_s,
-                        started,
-                        wall: self.walls[wall].name.clone(),
-                    });
-                }
-            }
+    /// A contact start or stop between the robot and wall `wall` reported by rapier.
+    pub fn contact_event(&mut self, started: bool, wall: usize) {
+        if started {
+            self.started_now = true;
+            self.counts.contacts += 1;
         }
-        // Pressing, from the narrow phase: covers a robot that already touched a wall
-        // and pushes on it again (no new contact start).
-        self.pressing_now = self.scene.phys.narrow_phase.contact_pairs_with(rc).any(|pair| {
-            pair.has_any_active_contact() && pair.total_impulse_magnitude() as f64 > PRESS_IMPULSE_NS
-        });
-
-        self.check_runaway()
+        if self.trace_period.is_some() {
+            self.trace.contacts.push(ContactSample {
+                time_s: self.time_s,
+                started,
+                wall: self.walls[wall].name.clone(),
+            });
+        }
     }
 
     /// Distance from the robot's disc to the nearest wall, metres (negative when
@@ -343,23 +492,28 @@ impl RobotEnv {
         libm::sqrt(d2) - self.cfg.radius_m
     }
 
-    /// If the robot cannot reach any wall during this step, integrates the free disc as
-    /// rapier's solver would (its substeps, each the linearised rotation update with
-    /// renormalisation and `translation += linvel·h`) and returns true; rapier is not
-    /// stepped. Otherwise returns false.
-    fn free_flight_step(&mut self) -> bool {
-        let params = &self.scene.phys.integration_parameters;
-        let (pred, substeps) = (params.prediction_distance() as f64, params.num_solver_iterations);
-        let rb = &self.scene.phys.bodies[self.scene.robot];
-        let (lv, w) = (rb.linvel(), rb.angvel());
-        let mut pose = *rb.position();
-        let travel = lv.length() as f64 * self.cfg.dt_s;
+    /// Whether free flight is on and the robot cannot reach any wall during this step.
+    pub fn is_free(&self, rb: &RigidBody, params: &IntegrationParameters) -> bool {
+        self.cfg.free_flight && self.is_clear(rb, params)
+    }
+
+    /// Whether the robot cannot reach any wall during this step (free flight is exact).
+    pub fn is_clear(&self, rb: &RigidBody, params: &IntegrationParameters) -> bool {
+        let pred = params.prediction_distance() as f64;
+        let travel = rb.linvel().length() as f64 * self.cfg.dt_s;
+        let pose = rb.position();
         let gap = self.wall_gap(pose.translation.x as f64, pose.translation.y as f64);
         // A non-finite state is not free: it goes to rapier, which quarantines it.
-        let free = gap > pred + 2.0 * travel + FREE_FLIGHT_MARGIN_M;
-        if !free {
-            return false;
-        }
+        gap > pred + 2.0 * travel + FREE_FLIGHT_MARGIN_M
+    }
+
+    /// Integrates the free disc as rapier's solver would (its substeps, each the
+    /// linearised rotation update with renormalisation and `translation += linvel·h`);
+    /// rapier is not stepped. Only exact when [`Core::is_free`] holds.
+    pub fn free_flight(rb: &mut RigidBody, params: &IntegrationParameters) {
+        let substeps = params.num_solver_iterations;
+        let (lv, w) = (rb.linvel(), rb.angvel());
+        let mut pose = *rb.position();
         let h = params.dt / substeps as Real;
         for _ in 0..substeps {
             let dang = w * h;
@@ -368,17 +522,14 @@ impl RobotEnv {
             pose.rotation.normalize_mut();
             pose.translation += lv * h;
         }
-        self.scene.phys.bodies[self.scene.robot].set_position(pose, false);
-        true
+        rb.set_position(pose, false);
     }
 
-    /// Runaway checks after a physics step.
-    fn check_runaway(&self) -> Result<(), EnvError> {
-        let robot = self.scene.robot;
-        let rb = &self.scene.phys.bodies[robot];
+    /// Runaway checks after a physics step; `quarantined`: rapier quarantined the body.
+    pub fn check_runaway(&self, rb: &RigidBody, quarantined: bool) -> Result<(), EnvError> {
         let (t, lv, w) = (rb.translation(), rb.linvel(), rb.angvel());
         let theta = rb.rotation().angle();
-        if !self.scene.phys.quarantine().bodies().is_empty() || !rb.is_enabled() {
+        if quarantined || !rb.is_enabled() {
             return Err(self.physics_error("rapier quarantined the robot (non-finite state)".into()));
         }
         let finite = [t.x, t.y, theta, lv.x, lv.y, w].iter().all(|v| v.is_finite());
@@ -412,10 +563,11 @@ impl RobotEnv {
         Ok(())
     }
 
-    fn sample_trace(&mut self) {
+    /// Trace samples due after a physics step.
+    pub fn sample_trace(&mut self, rb: &RigidBody) {
         if let Some(period) = self.trace_period {
             while self.time_s >= self.next_sample_s {
-                self.sample_pose();
+                self.sample_pose(rb);
                 self.next_sample_s += period;
             }
         }
@@ -435,10 +587,10 @@ impl RobotEnv {
         self.drive.traction = if slip < n.slip_probability { n.slip_friction_factor } else { 1.0 };
     }
 
-    /// Runs one primitive to its end; the event says how it ended.
-    fn run(&mut self, prim: Primitive) -> Result<Event, EnvError> {
-        let (_, _, th0) = self.raw_pose();
-        let origin = self.current_cell()?;
+    /// Starts a primitive: its noise, its first phase.
+    fn start_primitive(&mut self, prim: Primitive, rb: &RigidBody) -> Result<PrimRun, EnvError> {
+        let (_, _, th0) = raw_pose(rb);
+        let origin = self.current_cell(rb)?;
         let (ox, oy) = self.world.cell_center(origin);
         let cs = self.world.cell_size;
         self.draw_noise();
@@ -446,7 +598,7 @@ impl RobotEnv {
         if let Some(p) = self.trace_period {
             self.next_sample_s = t0 + p;
         }
-        let mut phase = match prim {
+        let phase = match prim {
             Primitive::Go(m) => {
                 let (dr, dc) = m.delta();
                 let target = (ox + dc as f64 * cs, oy - dr as f64 * cs);
@@ -457,208 +609,28 @@ impl RobotEnv {
                 Phase::Turn { heading: wrap(h), then: None }
             }
         };
-        let mut contact_at: Option<f64> = None;
-        loop {
-            if self.time_s - t0 >= self.timeout_s {
-                return Ok(if contact_at.is_some() { Event::WallBump } else { Event::TimedOut });
-            }
-            let (x, y, th) = self.raw_pose();
-            let (v, w) = match phase {
-                Phase::Turn { heading, then } => {
-                    let err = wrap(heading - th);
-                    if err.abs() < self.cfg.heading_tolerance_rad {
-                        phase = match (then, contact_at) {
-                            (_, Some(_)) => Phase::BackOff,
-                            (Some((tx, ty)), None) => Phase::Drive { tx, ty },
-                            (None, None) => return Ok(Event::Moved),
-                        };
-                        continue;
-                    }
-                    controller::turn(err, &self.limits)
-                }
-                Phase::Drive { tx, ty } => {
-                    let (v, w, d) = controller::drive_to(x, y, th, tx, ty, &self.limits);
-                    if d < self.cfg.position_tolerance_m {
-                        if contact_at.is_some() {
-                            phase = Phase::BackOff;
-                            continue;
-                        }
-                        return Ok(Event::Moved);
-                    }
-                    (v, w)
-                }
-                Phase::BackOff => {
-                    let (v, w, d) = controller::drive_to(x, y, th, ox, oy, &self.limits);
-                    if d < self.cfg.position_tolerance_m {
-                        return Ok(Event::WallBump);
-                    }
-                    (v, w)
-                }
-            };
-            self.physics_step(v, w)?;
-            self.sample_trace();
-            if (self.started_now || self.pressing_now) && contact_at.is_none() {
-                contact_at = Some(self.time_s);
-            }
-            if let (Phase::Drive { .. }, Some(t)) = (phase, contact_at)
-                && (self.pressing_now || self.time_s - t >= BUMP_DWELL_S)
-            {
-                phase = Phase::BackOff;
-            }
-        }
+        Ok(PrimRun { ox, oy, t0, phase, contact_at: None })
     }
 
-    fn teleport_to_respawn(&mut self) {
+    fn teleport_to_respawn(&mut self, rb: &mut RigidBody) {
         let (x, y) = self.world.cell_center(self.world.respawn);
-        let rb = &mut self.scene.phys.bodies[self.scene.robot];
         rb.set_translation(Vector::new(x as Real, y as Real), true);
         rb.set_linvel(Vector::ZERO, true);
         rb.set_angvel(0.0, true);
         self.drive.stop();
     }
-}
 
-impl Env for RobotEnv {
-    fn num_states(&self) -> usize {
-        match self.cfg.actions {
-            ActionSet::Moves => self.world.num_cells(),
-            ActionSet::Heading => self.world.num_cells() * 4,
-        }
+    /// Build facts and this robot's physics step, preset and action set.
+    pub fn features(&self) -> Vec<(String, String)> {
+        let mut f = crate::features();
+        f.push(("physics.dt_s".into(), self.cfg.dt_s.to_string()));
+        f.push(("robot.preset".into(), self.cfg.preset.name().into()));
+        f.push(("robot.actions".into(), format!("{:?}", self.cfg.actions).to_lowercase()));
+        f.push(("robot.noise".into(), if self.cfg.noise.is_some() { "on" } else { "off" }.into()));
+        f
     }
 
-    fn num_actions(&self) -> usize {
-        match self.cfg.actions {
-            ActionSet::Moves => 4,
-            ActionSet::Heading => 3,
-        }
-    }
-
-    fn action_names(&self) -> Vec<String> {
-        match self.cfg.actions {
-            ActionSet::Moves => Move::ALL.iter().map(|m| m.name().to_string()).collect(),
-            ActionSet::Heading => ["forward", "left", "right"].map(String::from).to_vec(),
-        }
-    }
-
-    fn world(&self) -> &World {
-        &self.world
-    }
-
-    fn state_cell(&self, state: State) -> usize {
-        match self.cfg.actions {
-            ActionSet::Moves => state,
-            ActionSet::Heading => state / 4,
-        }
-    }
-
-    fn reset(&mut self, seed: u64, start: Start) -> Result<State, EnvError> {
-        self.rng = rng_from_seed(seed);
-        let heading_states = self.cfg.actions == ActionSet::Heading;
-        let (cell, heading) = match start {
-            Start::World => {
-                let cell = match self.world.start {
-                    StartRule::Random => {
-                        if self.free_non_goal.is_empty() {
-                            self.world.respawn
-                        } else {
-                            self.free_non_goal[self.rng.random_range(0..self.free_non_goal.len())]
-                        }
-                    }
-                    StartRule::Respawn => self.world.respawn,
-                };
-                let h = if heading_states { Move::ALL[self.rng.random_range(0..4)] } else { Move::N };
-                (cell, h)
-            }
-            Start::Respawn => (self.world.respawn, Move::N),
-            Start::State(s) => {
-                if s >= self.num_states() {
-                    return Err(EnvError::InvalidStart(s));
-                }
-                let cell = self.state_cell(s);
-                if !self.world.is_free(cell) {
-                    return Err(EnvError::InvalidStart(s));
-                }
-                (cell, if heading_states { Move::ALL[s % 4] } else { Move::N })
-            }
-        };
-        let (x, y) = self.world.cell_center(cell);
-        self.scene = Scene::new(&self.walls, &self.cfg, x, y, heading_of(heading));
-        if let Ok(mut e) = self.collector.events.lock() {
-            e.clear();
-        }
-        self.drive = Drive::new(&self.cfg);
-        self.time_s = 0.0;
-        self.decision_step = 0;
-        self.counts = Counts::default();
-        self.trace.poses.clear();
-        self.trace.contacts.clear();
-        self.current_state()
-    }
-
-    fn step(&mut self, action: Action) -> Result<Step, EnvError> {
-        let n = self.num_actions();
-        if action >= n {
-            return Err(EnvError::InvalidAction { action, num_actions: n });
-        }
-        self.decision_step += 1;
-        self.trace.poses.clear();
-        self.trace.contacts.clear();
-        self.counts.primitives += 1;
-        let (reward, event) = if self.current_cell()? == self.world.goal {
-            self.teleport_to_respawn();
-            self.counts.goal += 1;
-            (self.world.rewards.goal, Event::Teleport)
-        } else {
-            let prim = match self.cfg.actions {
-                ActionSet::Moves => Primitive::Go(Move::ALL[action]),
-                ActionSet::Heading => match action {
-                    0 => Primitive::Go(nearest_move(self.raw_pose().2)),
-                    1 => Primitive::Turn(1),
-                    _ => Primitive::Turn(-1),
-                },
-            };
-            let event = self.run(prim)?;
-            match event {
-                Event::WallBump => {
-                    self.counts.bumped += 1;
-                    (self.world.rewards.wall, event)
-                }
-                Event::TimedOut => {
-                    self.counts.timed_out += 1;
-                    (self.world.rewards.step, event)
-                }
-                _ => {
-                    self.counts.reached += 1;
-                    (self.world.rewards.step, event)
-                }
-            }
-        };
-        if self.trace_period.is_some() {
-            self.sample_pose();
-        }
-        Ok(Step { state: self.current_state()?, reward, event, terminated: false, truncated: false })
-    }
-
-    fn sim_time_s(&self) -> f64 {
-        self.time_s
-    }
-
-    fn set_trace(&mut self, period_s: Option<f64>) {
-        self.trace_period = period_s.filter(|p| p.is_finite() && *p > 0.0);
-    }
-
-    fn take_trace(&mut self, out: &mut StepTrace) {
-        std::mem::swap(&mut self.trace, out);
-        self.trace.poses.clear();
-        self.trace.contacts.clear();
-    }
-
-    fn pose(&self) -> PoseSample {
-        let (x, y, theta) = self.raw_pose();
-        PoseSample { time_s: self.time_s, x, y, theta }
-    }
-
-    fn stats(&self) -> Vec<(String, f64)> {
+    pub fn stats(&self) -> Vec<(String, f64)> {
         let c = &self.counts;
         [
             ("robot/sim_time_s", self.time_s),
@@ -674,6 +646,180 @@ impl Env for RobotEnv {
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
         .collect()
+    }
+}
+
+impl RobotEnv {
+    /// Builds the arena of `world` and a robot configured by `cfg` (validated against the
+    /// world). Call [`Env::reset`] before stepping; until then the robot waits at rest
+    /// at the centre of the respawn cell, facing north.
+    pub fn new(world: &World, cfg: RobotConfig) -> Result<RobotEnv, RobotError> {
+        let core = Core::new(world, cfg)?;
+        let (x, y) = world.cell_center(world.respawn);
+        let scene = Scene::new(&core.walls, &core.cfg, x, y, FRAC_PI_2);
+        Ok(RobotEnv { core, scene, collector: Collector::default() })
+    }
+
+    /// [`RobotEnv::new`] with the world's own configuration ([`RobotConfig::from_world`]).
+    pub fn from_world(world: &World) -> Result<RobotEnv, RobotError> {
+        RobotEnv::new(world, RobotConfig::from_world(world)?)
+    }
+
+    /// The resolved configuration.
+    pub fn config(&self) -> &RobotConfig {
+        &self.core.cfg
+    }
+
+    /// The arena's walls, in collider order (names as in contact reports).
+    pub fn walls(&self) -> &[Wall] {
+        &self.core.walls
+    }
+
+    /// The time-out of one primitive, seconds.
+    pub fn timeout_s(&self) -> f64 {
+        self.core.timeout_s
+    }
+
+    /// [`crate::features`] plus this environment's physics step, preset and action set.
+    pub fn features(&self) -> Vec<(String, String)> {
+        self.core.features()
+    }
+
+    /// Test hook: sets the robot's velocity (to provoke the runaway check).
+    #[doc(hidden)]
+    pub fn debug_set_velocity(&mut self, vx: f64, vy: f64) {
+        self.scene.phys.bodies[self.scene.robot].set_linvel(Vector::new(vx as Real, vy as Real), true);
+    }
+
+    fn body(&self) -> &RigidBody {
+        &self.scene.phys.bodies[self.scene.robot]
+    }
+
+    /// One physics step under the commanded twist, with contact bookkeeping and the
+    /// runaway checks. Allocates nothing unless tracing records a contact.
+    fn physics_step(&mut self, v_cmd: f64, w_cmd: f64) -> Result<(), EnvError> {
+        let robot = self.scene.robot;
+        self.core.drive_body(&mut self.scene.phys.bodies[robot], v_cmd, w_cmd);
+        let params = &self.scene.phys.integration_parameters;
+        let rb = &self.scene.phys.bodies[robot];
+        if self.core.is_free(rb, params) {
+            let params = *params;
+            Core::free_flight(&mut self.scene.phys.bodies[robot], &params);
+            return self.check_runaway();
+        }
+        self.scene.phys.step_with_events(&(), &self.collector);
+        self.core.counts.rapier_steps += 1;
+
+        // Contact starts and stops reported by rapier.
+        let rc = self.scene.robot_collider;
+        if let Ok(mut events) = self.collector.events.lock() {
+            for e in events.drain(..) {
+                let other = match (e.collider1(), e.collider2()) {
+                    (a, b) if a == rc => b,
+                    (a, b) if b == rc => a,
+                    _ => continue,
+                };
+                let Some(wall) = self.scene.wall_of(other) else { continue };
+                self.core.contact_event(matches!(e, CollisionEvent::Started(..)), wall);
+            }
+        }
+        // Pressing, from the narrow phase: covers a robot that already touched a wall
+        // and pushes on it again (no new contact start).
+        self.core.pressing_now = pressing(&self.scene.phys, rc);
+        self.check_runaway()
+    }
+
+    fn check_runaway(&self) -> Result<(), EnvError> {
+        let quarantined = !self.scene.phys.quarantine().bodies().is_empty();
+        self.core.check_runaway(self.body(), quarantined)
+    }
+
+    /// Runs one primitive to its end; the event says how it ended.
+    fn run(&mut self, mut prim: PrimRun) -> Result<Event, EnvError> {
+        loop {
+            let (v, w) = match prim.next(&self.core, self.body()) {
+                Next::End(e) => return Ok(e),
+                Next::Command(v, w) => (v, w),
+            };
+            self.physics_step(v, w)?;
+            let rb = &self.scene.phys.bodies[self.scene.robot];
+            self.core.sample_trace(rb);
+            prim.after_physics(&self.core);
+        }
+    }
+}
+
+/// Whether the robot's collider `rc` presses on a wall: a contact pair with an active
+/// contact whose normal impulse in the last step exceeds [`PRESS_IMPULSE_NS`].
+pub(crate) fn pressing(phys: &PhysicsWorld, rc: ColliderHandle) -> bool {
+    phys.narrow_phase
+        .contact_pairs_with(rc)
+        .any(|pair| pair.has_any_active_contact() && pair.total_impulse_magnitude() as f64 > PRESS_IMPULSE_NS)
+}
+
+impl Env for RobotEnv {
+    fn num_states(&self) -> usize {
+        self.core.num_states()
+    }
+
+    fn num_actions(&self) -> usize {
+        self.core.num_actions()
+    }
+
+    fn action_names(&self) -> Vec<String> {
+        match self.core.cfg.actions {
+            ActionSet::Moves => Move::ALL.iter().map(|m| m.name().to_string()).collect(),
+            ActionSet::Heading => ["forward", "left", "right"].map(String::from).to_vec(),
+        }
+    }
+
+    fn world(&self) -> &World {
+        &self.core.world
+    }
+
+    fn state_cell(&self, state: State) -> usize {
+        self.core.state_cell(state)
+    }
+
+    fn reset(&mut self, seed: u64, start: Start) -> Result<State, EnvError> {
+        let (x, y, theta) = self.core.reset(seed, start)?;
+        self.scene = Scene::new(&self.core.walls, &self.core.cfg, x, y, theta);
+        if let Ok(mut e) = self.collector.events.lock() {
+            e.clear();
+        }
+        self.core.current_state(self.body())
+    }
+
+    fn step(&mut self, action: Action) -> Result<Step, EnvError> {
+        let robot = self.scene.robot;
+        let event = match self.core.begin_step(action, &mut self.scene.phys.bodies[robot])? {
+            Begin::Done(e) => e,
+            Begin::Run(prim) => self.run(prim)?,
+        };
+        let rb = &self.scene.phys.bodies[robot];
+        self.core.finish_step(event, rb)
+    }
+
+    fn sim_time_s(&self) -> f64 {
+        self.core.time_s
+    }
+
+    fn set_trace(&mut self, period_s: Option<f64>) {
+        self.core.trace_period = period_s.filter(|p| p.is_finite() && *p > 0.0);
+    }
+
+    fn take_trace(&mut self, out: &mut StepTrace) {
+        std::mem::swap(&mut self.core.trace, out);
+        self.core.trace.poses.clear();
+        self.core.trace.contacts.clear();
+    }
+
+    fn pose(&self) -> PoseSample {
+        self.core.pose(self.body())
+    }
+
+    fn stats(&self) -> Vec<(String, f64)> {
+        self.core.stats()
     }
 }
 

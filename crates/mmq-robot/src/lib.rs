@@ -21,10 +21,12 @@ pub mod config;
 pub mod controller;
 mod drive;
 mod env;
+pub mod multi;
 
 pub use arena::{Wall, walls};
 pub use config::{ActionSet, DEFAULT_DT_S, NoiseConfig, Preset, RobotConfig, RobotError, RobotTable};
 pub use env::RobotEnv;
+pub use multi::MultiArena;
 
 /// The rapier2d version this crate was built against.
 pub const RAPIER_VERSION: &str = rapier2d::VERSION;

@@ -4,6 +4,7 @@ mod config;
 mod determinism;
 mod heading;
 mod motion;
+mod multi;
 mod trace;
 
 use mmq_core::World;
