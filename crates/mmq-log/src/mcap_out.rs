@@ -18,12 +18,18 @@ use std::io::{self, Write};
 
 use mcap::records::op;
 
+use crate::recorder::{DIGEST_START, digest_message};
+
 /// Compression of the chunks (zstd, the only codec mmq logs use).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct ChunkOptions {
     /// zstd level (1 is zstd's fastest standard level; negative levels trade size for speed).
     pub level: i32,
 }
+
+/// Bytes of a message record before its data: opcode, length, channel id, sequence, log
+/// time, publish time.
+const MESSAGE_HEAD: usize = 1 + 8 + 2 + 4 + 8 + 8;
 
 /// The chunk being filled: its message records, uncompressed, and their message index
 /// entries. Filled by [`OpenChunk::message`]; written (and emptied) by
@@ -52,20 +58,28 @@ impl OpenChunk {
         self.records.is_empty()
     }
 
-    /// Appends a message (publish time = log time). `channel` must be a registered id
-    /// (at most the `channels` given to [`Self::new`]).
-    pub fn message(&mut self, channel: u16, sequence: u32, log_time: u64, data: &[u8]) {
-        let offset = self.records.len() as u64;
-        let mut head = [0u8; 31];
+    /// Appends a message (publish time = log time) whose data `write` appends to the
+    /// vector it is given (the chunk itself: the data is not copied). `channel` must be a
+    /// registered id (at most the `channels` given to [`Self::new`]).
+    pub fn message(&mut self, channel: u16, sequence: u32, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
+        let at = self.records.len();
+        self.records.extend_from_slice(&[0; MESSAGE_HEAD]);
+        write(&mut self.records);
+        let len = (self.records.len() - at - 9) as u64;
+        let head = &mut self.records[at..at + MESSAGE_HEAD];
         head[0] = op::MESSAGE;
-        head[1..9].copy_from_slice(&(22 + data.len() as u64).to_le_bytes());
+        head[1..9].copy_from_slice(&len.to_le_bytes());
         head[9..11].copy_from_slice(&channel.to_le_bytes());
         head[11..15].copy_from_slice(&sequence.to_le_bytes());
         head[15..23].copy_from_slice(&log_time.to_le_bytes());
         head[23..31].copy_from_slice(&log_time.to_le_bytes());
-        self.records.extend_from_slice(&head);
-        self.records.extend_from_slice(data);
-        self.entries[usize::from(channel)].push((log_time, offset));
+        self.entries[usize::from(channel)].push((log_time, at as u64));
+    }
+
+    /// The data of the message whose record starts at `at`.
+    fn data(&self, at: usize) -> &[u8] {
+        let len = u64::from_le_bytes(self.records[at + 1..at + 9].try_into().expect("8 bytes")) as usize;
+        &self.records[at + MESSAGE_HEAD..at + 9 + len]
     }
 
     fn clear(&mut self) {
@@ -147,6 +161,8 @@ pub(crate) struct McapOut<W: Write> {
     channels: Vec<Channel>,
     /// Messages per channel id.
     counts: Vec<u64>,
+    /// Digest of the messages written, per channel id ([`digest_message`]).
+    digests: Vec<u64>,
     bounds: Option<(u64, u64)>,
     /// Serialized summary records, by group.
     chunk_indexes: Vec<u8>,
@@ -170,6 +186,7 @@ impl<W: Write> McapOut<W> {
             schemas: Vec::new(),
             channels: Vec::new(),
             counts: Vec::new(),
+            digests: Vec::new(),
             bounds: None,
             chunk_indexes: Vec::new(),
             chunk_count: 0,
@@ -227,12 +244,19 @@ impl<W: Write> McapOut<W> {
         self.top_level(op::CHANNEL, &body)?;
         self.channels.push(c);
         self.counts.resize(usize::from(id) + 1, 0);
+        self.digests.resize(usize::from(id) + 1, DIGEST_START);
         Ok(id)
     }
 
     /// Channels registered so far (their ids are 1..=this).
     pub fn channel_count(&self) -> usize {
         self.channels.len()
+    }
+
+    /// Digest of the messages written so far (in chunks written), by channel id (index 0
+    /// is no channel): [`digest_message`] folded over each channel's messages in order.
+    pub fn digests(&self) -> &[u64] {
+        &self.digests
     }
 
     /// Compresses and writes `chunk` (if it holds anything) and its message indexes, and
@@ -243,10 +267,13 @@ impl<W: Write> McapOut<W> {
         }
         let (mut start, mut end) = (u64::MAX, 0);
         for (c, entries) in chunk.entries.iter().enumerate() {
-            for &(t, _) in entries {
+            let mut digest = self.digests[c];
+            for &(t, at) in entries {
                 start = start.min(t);
                 end = end.max(t);
+                digest = digest_message(digest, t, chunk.data(at as usize));
             }
+            self.digests[c] = digest;
             self.counts[c] += entries.len() as u64;
         }
         let uncompressed_crc = crc32fast::hash(&chunk.records);

@@ -137,6 +137,8 @@ pub struct TopicStats {
     /// Digest of every message's `log_time` and bytes (CRC-32 and length), in order;
     /// [`crate::read_log`] computes the same, so equal digests mean the messages
     /// were read back byte for byte.
+    /// Computed by the writer as it writes the chunks; in [`McapRecorder::stats`] after
+    /// `finish` (as the counts are).
     pub digest: u64,
 }
 
@@ -238,10 +240,10 @@ pub struct McapRecorder {
     writer: Option<LogWriter<BufWriter<File>>>,
     channel_ids: [u16; NCH],
     sequence: [u32; NCH],
-    digests: [TopicStats; NCH],
+    /// Messages written per channel slot, and their digest as last taken from the writer.
+    topics: [TopicStats; NCH],
     stats: RecordStats,
     error: Option<LogError>,
-    buf: Vec<u8>,
     pose: PoseJson,
     run: Option<Run>,
     /// Simulated time at the start of the current step, s (robot).
@@ -335,10 +337,9 @@ impl McapRecorder {
             writer: Some(writer),
             channel_ids,
             sequence: [0; NCH],
-            digests: [TopicStats { count: 0, digest: DIGEST_START }; NCH],
+            topics: [TopicStats { count: 0, digest: DIGEST_START }; NCH],
             stats,
             error: None,
-            buf: Vec::with_capacity(4096),
             pose: PoseJson::default(),
             run: None,
             step_start_s: 0.0,
@@ -366,7 +367,8 @@ impl McapRecorder {
         &self.config.path
     }
 
-    /// What has been written so far.
+    /// What has been written so far: steps as they come; per-topic counts and digests
+    /// once `finish` has run.
     pub fn stats(&self) -> &RecordStats {
         &self.stats
     }
@@ -388,34 +390,37 @@ impl McapRecorder {
         self.writer = None;
     }
 
-    /// Writes the bytes in `self.buf` as one message.
-    fn write_buf(&mut self, ch: Ch, log_time: u64) {
+    /// Writes one message, whose bytes `write` appends (straight into the open chunk).
+    fn emit(&mut self, ch: Ch, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
         let Some(w) = self.writer.as_mut() else { return };
         let i = ch as usize;
-        if let Err(e) = w.message(self.channel_ids[i], self.sequence[i], log_time, &self.buf) {
+        if let Err(e) = w.message(self.channel_ids[i], self.sequence[i], log_time, write) {
             self.fail(e);
             return;
         }
         self.sequence[i] = self.sequence[i].wrapping_add(1);
-        let d = &mut self.digests[i];
-        d.count += 1;
-        d.digest = digest_message(d.digest, log_time, &self.buf);
+        self.topics[i].count += 1;
     }
 
     fn write<T: Serialize>(&mut self, ch: Ch, log_time: u64, msg: &T) {
-        if self.writer.is_none() {
-            return;
-        }
-        self.buf.clear();
         // Serializing our own plain structs into a Vec cannot fail.
-        serde_json::to_writer(&mut self.buf, msg).expect("JSON serialization of a log message");
-        self.write_buf(ch, log_time);
+        self.emit(ch, log_time, |out| {
+            serde_json::to_writer(out, msg).expect("JSON serialization of a log message")
+        });
     }
 
     fn write_bytes(&mut self, ch: Ch, log_time: u64, bytes: &[u8]) {
-        self.buf.clear();
-        self.buf.extend_from_slice(bytes);
-        self.write_buf(ch, log_time);
+        self.emit(ch, log_time, |out| out.extend_from_slice(bytes));
+    }
+
+    /// Takes the per-topic digests from the writer (which computes them as it writes the
+    /// chunks): complete after `finish`, else as of the last flush.
+    fn take_digests(&mut self, by_channel: &[u64]) {
+        for (t, &id) in self.topics.iter_mut().zip(&self.channel_ids) {
+            if let Some(&d) = by_channel.get(usize::from(id)).filter(|_| id > 0) {
+                t.digest = d;
+            }
+        }
     }
 
     fn note(&mut self, log_time: u64, level: u8, message: String) {
@@ -439,13 +444,11 @@ impl McapRecorder {
         if self.writer.is_none() {
             return;
         }
-        self.pose.set(log_time, x, y, theta);
-        self.buf.clear();
-        self.pose.frame_transform(&mut self.buf);
-        self.write_buf(Ch::Tf, log_time);
-        self.buf.clear();
-        self.pose.pose_in_frame(&mut self.buf);
-        self.write_buf(Ch::Pose, log_time);
+        let mut pose = std::mem::take(&mut self.pose);
+        pose.set(log_time, x, y, theta);
+        self.emit(Ch::Tf, log_time, |out| pose.frame_transform(out));
+        self.emit(Ch::Pose, log_time, |out| pose.pose_in_frame(out));
+        self.pose = pose;
     }
 
     fn write_cell_pose(&mut self, log_time: u64, state: State) {
@@ -479,15 +482,18 @@ impl McapRecorder {
     pub fn flush(&mut self) {
         self.last_flush_step = self.stats.steps_seen;
         self.last_flush = Instant::now();
-        if let Some(w) = self.writer.as_mut()
-            && let Err(e) = w.flush()
-        {
-            self.fail(e);
+        let Some(w) = self.writer.as_mut() else { return };
+        match w.flush() {
+            Ok(()) => {
+                let digests = w.digests().to_vec();
+                self.take_digests(&digests);
+            }
+            Err(e) => self.fail(e),
         }
     }
 
     fn sync_stats(&mut self) {
-        for (i, d) in self.digests.iter().enumerate() {
+        for (i, d) in self.topics.iter().enumerate() {
             if i == Ch::Log as usize && !self.config.notes {
                 continue;
             }
@@ -531,19 +537,20 @@ impl McapRecorder {
                 action,
                 source: mcap::McapError::Io(source),
             };
-            let result =
-                w.metadata("end", &end).and_then(|()| w.finish()).map_err(mcap_err).and_then(|mut inner| {
-                    inner.flush().map_err(|source| LogError::Io {
-                        path: path.clone(),
-                        action: "write the log",
-                        source,
-                    })?;
-                    inner.get_ref().metadata().map(|m| m.len()).map_err(|source| LogError::Io {
-                        path: path.clone(),
-                        action: "measure the log",
-                        source,
-                    })
-                });
+            let finished = w.metadata("end", &end).and_then(|()| w.finish()).map_err(mcap_err);
+            let result = finished.and_then(|(mut inner, digests)| {
+                self.take_digests(&digests);
+                inner.flush().map_err(|source| LogError::Io {
+                    path: path.clone(),
+                    action: "write the log",
+                    source,
+                })?;
+                inner.get_ref().metadata().map(|m| m.len()).map_err(|source| LogError::Io {
+                    path: path.clone(),
+                    action: "measure the log",
+                    source,
+                })
+            });
             match result {
                 Ok(bytes) => {
                     self.stats.bytes = bytes;

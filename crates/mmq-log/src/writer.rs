@@ -69,14 +69,18 @@ impl Job {
     }
 }
 
+/// What the writer hands back at the end: the output, and the message digests by
+/// channel id ([`McapOut::digests`]).
+type Finished<W> = (W, Vec<u64>);
+
 /// The writer thread and the channels to it.
 struct Worker<W> {
     jobs: SyncSender<Job>,
-    /// One `()` per flush done.
-    flushed: Receiver<()>,
+    /// The digests, once per flush done.
+    flushed: Receiver<Vec<u64>>,
     /// Emptied chunk buffers coming back.
     spare: Receiver<OpenChunk>,
-    thread: Option<JoinHandle<Result<W, Failure>>>,
+    thread: Option<JoinHandle<Result<Finished<W>, Failure>>>,
 }
 
 impl<W> Worker<W> {
@@ -113,16 +117,16 @@ fn panicked(payload: &(dyn std::any::Any + Send)) -> io::Error {
 fn serve<W: Write>(
     mut out: McapOut<W>,
     jobs: Receiver<Job>,
-    flushed: Sender<()>,
+    flushed: Sender<Vec<u64>>,
     spare: Sender<OpenChunk>,
-) -> Result<W, Failure> {
+) -> Result<Finished<W>, Failure> {
     while let Ok(job) = jobs.recv() {
         match job {
-            Job::Finish => return out.finish().map_err(Failure::at("finish the log")),
+            Job::Finish => return finish(out),
             Job::Flush => {
                 Job::Flush.run(&mut out, |_| {})?;
                 // The recorder waits for this; if it has gone, nobody needs it.
-                let _ = flushed.send(());
+                let _ = flushed.send(out.digests().to_vec());
             }
             job => job.run(&mut out, |c| {
                 let _ = spare.send(c);
@@ -130,6 +134,12 @@ fn serve<W: Write>(
         }
     }
     Err(Failure { action: "finish the log", source: io::Error::other("the recorder went away first") })
+}
+
+fn finish<W: Write>(out: McapOut<W>) -> Result<Finished<W>, Failure> {
+    let digests = out.digests().to_vec();
+    let w = out.finish().map_err(Failure::at("finish the log"))?;
+    Ok((w, digests))
 }
 
 enum Back<W: Write> {
@@ -145,6 +155,8 @@ pub(crate) struct LogWriter<W: Write> {
     /// A chunk is closed once it holds this many uncompressed bytes.
     chunk_size: usize,
     channels: usize,
+    /// Message digests by channel id as of the last flush (writer thread).
+    digests: Vec<u64>,
     back: Back<W>,
 }
 
@@ -153,6 +165,7 @@ impl<W: Write + Send + 'static> LogWriter<W> {
     /// when `thread`.
     pub fn new(out: McapOut<W>, chunk_size: usize, thread: bool) -> io::Result<Self> {
         let channels = out.channel_count();
+        let digests = out.digests().to_vec();
         let back = if thread {
             let (jobs, jobs_rx) = mpsc::sync_channel(QUEUE);
             let (flushed_tx, flushed) = mpsc::channel();
@@ -164,23 +177,30 @@ impl<W: Write + Send + 'static> LogWriter<W> {
         } else {
             Back::Inline(Box::new(out))
         };
-        Ok(Self { chunk: OpenChunk::new(Self::capacity(chunk_size), channels), chunk_size, channels, back })
+        Ok(Self {
+            chunk: OpenChunk::new(Self::capacity(chunk_size), channels),
+            chunk_size,
+            channels,
+            digests,
+            back,
+        })
     }
 
     fn capacity(chunk_size: usize) -> usize {
         chunk_size + (64 << 10)
     }
 
-    /// Appends a message (publish time = log time) to the open chunk; closes the chunk
-    /// when it is full. `channel` must be one registered before [`Self::new`].
+    /// Appends a message (publish time = log time) whose data `write` appends to the
+    /// vector it is given, to the open chunk; closes the chunk when it is full. `channel`
+    /// must be one registered before [`Self::new`].
     pub fn message(
         &mut self,
         channel: u16,
         sequence: u32,
         log_time: u64,
-        data: &[u8],
+        write: impl FnOnce(&mut Vec<u8>),
     ) -> Result<(), Failure> {
-        self.chunk.message(channel, sequence, log_time, data);
+        self.chunk.message(channel, sequence, log_time, write);
         if self.chunk.len() >= self.chunk_size { self.close_chunk() } else { Ok(()) }
     }
 
@@ -216,12 +236,22 @@ impl<W: Write + Send + 'static> LogWriter<W> {
     pub fn flush(&mut self) -> Result<(), Failure> {
         self.close_chunk()?;
         self.send(Job::Flush)?;
-        if let Back::Thread(w) = &mut self.back
-            && w.flushed.recv().is_err()
-        {
-            return Err(w.failure());
+        if let Back::Thread(w) = &mut self.back {
+            match w.flushed.recv() {
+                Ok(d) => self.digests = d,
+                Err(_) => return Err(w.failure()),
+            }
         }
         Ok(())
+    }
+
+    /// Digest of the messages written, by channel id (index 0 is no channel), as of the
+    /// last flush (complete after [`Self::finish`], which returns them).
+    pub fn digests(&self) -> &[u64] {
+        match &self.back {
+            Back::Inline(out) => out.digests(),
+            Back::Thread(_) => &self.digests,
+        }
     }
 
     /// Writes a metadata record (after closing the open chunk).
@@ -248,11 +278,12 @@ impl<W: Write + Send + 'static> LogWriter<W> {
     }
 
     /// Closes the open chunk, finishes the file (summary section, footer, end magic),
-    /// waits for the writer thread, and returns the output.
-    pub fn finish(mut self) -> Result<W, Failure> {
+    /// waits for the writer thread, and returns the output and the message digests by
+    /// channel id.
+    pub fn finish(mut self) -> Result<Finished<W>, Failure> {
         self.close_chunk()?;
         match self.back {
-            Back::Inline(out) => out.finish().map_err(Failure::at("finish the log")),
+            Back::Inline(out) => finish(*out),
             Back::Thread(mut w) => {
                 if w.jobs.send(Job::Finish).is_err() {
                     return Err(w.failure());
@@ -309,7 +340,7 @@ mod tests {
         let msg = [b'x'; 300];
         for i in 0..10_000u32 {
             let r = w
-                .message(1, i, u64::from(i), &msg)
+                .message(1, i, u64::from(i), |o| o.extend_from_slice(&msg))
                 .and_then(|()| if i % 50 == 49 { w.flush() } else { Ok(()) });
             if let Err(f) = r {
                 return f;
@@ -329,7 +360,7 @@ mod tests {
         // An error met while finishing too (the open chunk is the first written).
         let mut w = writer(300, false, true);
         for i in 0..5u32 {
-            w.message(1, i, 0, &[b'y'; 300]).unwrap();
+            w.message(1, i, 0, |o| o.extend_from_slice(&[b'y'; 300])).unwrap();
         }
         let f = w.finish().map(|_| ()).unwrap_err();
         assert_eq!(f.source.kind(), io::ErrorKind::StorageFull, "{f:?}");
@@ -351,9 +382,10 @@ mod tests {
         for thread in [true, false] {
             let mut w = writer(usize::MAX, false, thread);
             for i in 0..1000u32 {
-                w.message(1, i, u64::from(i), format!("{{\"i\":{i}}}").as_bytes()).unwrap();
+                w.message(1, i, u64::from(i), |o| o.extend_from_slice(format!("{{\"i\":{i}}}").as_bytes()))
+                    .unwrap();
             }
-            let out = w.finish().map_err(|f| f.source).unwrap();
+            let (out, _) = w.finish().map_err(|f| f.source).unwrap();
             assert!(out.written > 1000 * 31 / 20, "{}", out.written);
         }
     }
