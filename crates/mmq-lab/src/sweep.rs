@@ -369,17 +369,31 @@ impl Plan {
     }
 }
 
-/// Largest number of jobs a spec may describe.
-pub const MAX_JOBS: usize = 10_000_000;
+/// Largest number of jobs a spec may describe. Every cell is built in memory (about
+/// 1.3 KB each), so this also bounds what a short spec can make `mmq sweep` allocate:
+/// at most ~1.3 GB, and a million jobs is far beyond a cluster's week of paper-sized runs.
+pub const MAX_JOBS: usize = 1_000_000;
+/// Largest sweep spec file read, bytes: a spec is a small text file.
+pub const MAX_SPEC_BYTES: u64 = 1 << 20;
 
 impl SweepSpec {
     /// Reads and validates a spec file. Relative world paths are resolved against the
     /// spec file's directory.
     pub fn load(path: &Path) -> Result<SweepSpec, LabError> {
-        let text = std::fs::read_to_string(path).map_err(|e| LabError::Config {
-            file: path.display().to_string(),
-            message: format!("cannot read the sweep spec: {e}"),
-        })?;
+        use std::io::Read as _;
+        let cannot = |message: String| LabError::Config { file: path.display().to_string(), message };
+        // Read at most MAX_SPEC_BYTES (+1 to notice more): `/dev/zero` or a FIFO must not
+        // take all memory.
+        let mut text = String::new();
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_SPEC_BYTES + 1).read_to_string(&mut text))
+            .map_err(|e| cannot(format!("cannot read the sweep spec: {e}")))?;
+        if text.len() as u64 > MAX_SPEC_BYTES {
+            return Err(cannot(format!(
+                "the sweep spec is larger than {} MiB; a spec is a small TOML file (see docs/sweeps.md)",
+                MAX_SPEC_BYTES >> 20
+            )));
+        }
         Self::parse(&text, path)
     }
 
@@ -589,6 +603,9 @@ impl SweepSpec {
         for (i, w) in world.values.iter().enumerate() {
             let p = Path::new(w);
             let path = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
+            // World::load first: it reads at most MAX_FILE_BYTES; then the bytes for the digest.
+            let loaded =
+                World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
             let bytes = std::fs::read(&path).map_err(|e| {
                 src.error(
                     world.offset,
@@ -596,8 +613,6 @@ impl SweepSpec {
                     format!("cannot read the world file {}: {e}", path.display()),
                 )
             })?;
-            let loaded =
-                World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
             worlds.push(loaded);
             world_paths.push(path);
             world_digests.push(format!("{:016x}", fnv1a(&bytes)));
@@ -1556,6 +1571,24 @@ mod tests {
         assert!(e.contains("t.toml:2:1: learnr: unknown field"), "{e}");
         let e = spec("world = \"../paper-3x3.toml\"\nsteps = \"many\"\n").unwrap_err().to_string();
         assert!(e.contains("t.toml:2:9: steps: invalid type"), "{e}");
+    }
+
+    /// A few bytes must not describe more than MAX_JOBS jobs (every cell is built in
+    /// memory), and `/dev/zero` as a spec is refused after MAX_SPEC_BYTES.
+    #[test]
+    fn refuses_specs_too_large_to_build() {
+        let alphas: Vec<String> = (0..101).map(|i| format!("{}", i as f64 / 100.0)).collect();
+        let list = format!("[{}]", alphas.join(", "));
+        let text = format!(
+            "world = \"../paper-3x3.toml\"\nalpha = {list}\ngamma = [{}]\nepsilon = {list}\nseeds = 2\n",
+            (0..99).map(|i| format!("{}", i as f64 / 100.0)).collect::<Vec<_>>().join(", ")
+        );
+        let e = spec(&text).unwrap_err().to_string();
+        assert!(e.contains("1009899 cells × 2 seeds is more than 1000000 jobs"), "{e}");
+        if Path::new("/dev/zero").exists() {
+            let e = SweepSpec::load(Path::new("/dev/zero")).unwrap_err().to_string();
+            assert!(e.contains("/dev/zero") && e.contains("larger than 1 MiB"), "{e}");
+        }
     }
 
     #[test]
