@@ -148,7 +148,9 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
             Part::Sensitivity if envs.contains(&EnvKind::Grid) => sensitivity(o, &mut rep, stop, a.quiet)?,
             Part::Beyond => {
                 let mut bo = mmq_lab::beyond::BeyondOptions::new(a.quick);
-                bo.seeds = a.seeds.unwrap_or(bo.seeds);
+                if let Some(n) = a.seeds {
+                    (bo.seeds, bo.maze_seeds) = (n, n);
+                }
                 if let Some(s) = a.steps {
                     bo.steps = s;
                     bo.window = (s / 60).max(1);

@@ -7,7 +7,9 @@
 //! the report live in the CLI (`src/beyond.rs`).
 //!
 //! Fixed for every setting: α = 0.1, γ = 0.9, q0 = 10, λ̂max = 50 (the largest delay
-//! the learners are told of), 150,000 steps, 20 seeds (the budget flags shrink these).
+//! the learners are told of), 150,000 steps, 20 seeds on 9×9 and 5 on the maze (the
+//! issue asks for 5 there; the deconvolving learners take ~13 s per maze seed). The
+//! budget flags change these (`--seeds` sets both).
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -58,8 +60,10 @@ pub const JUDGE_AT: u64 = 50_000;
 /// Budget of the study.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct BeyondOptions {
-    /// Seeds per setting.
+    /// Seeds per setting on the paper's 9×9 world.
     pub seeds: u64,
+    /// Seeds per setting on the other (larger) worlds.
+    pub maze_seeds: u64,
     /// Decision steps per seed.
     pub steps: u64,
     /// First master seed.
@@ -71,10 +75,17 @@ pub struct BeyondOptions {
 }
 
 impl BeyondOptions {
-    /// The full budget (20 seeds × 150,000 steps) or a quick one (3 seeds × 20,000).
+    /// The full budget (20 seeds on 9×9, 5 on the maze, × 150,000 steps) or a quick one
+    /// (3 and 2 seeds × 20,000).
     pub fn new(quick: bool) -> Self {
-        let (seeds, steps, window) = if quick { (3, 20_000, 1000) } else { (20, 150_000, 2500) };
-        Self { seeds, steps, seed: 0, worlds: PathBuf::from("worlds"), window }
+        let (seeds, maze_seeds, steps, window) =
+            if quick { (3, 2, 20_000, 1000) } else { (20, 5, 150_000, 2500) };
+        Self { seeds, maze_seeds, steps, seed: 0, worlds: PathBuf::from("worlds"), window }
+    }
+
+    /// Seeds of a setting on `world`.
+    pub fn seeds_for(&self, world: &str) -> u64 {
+        if world == WORLDS[0] { self.seeds } else { self.maze_seeds }
     }
 }
 
@@ -158,7 +169,7 @@ pub fn config(o: &BeyondOptions, s: &Setting) -> RunConfig {
         delay: s.delay.clone(),
         steps: o.steps,
         seed: o.seed,
-        seeds: o.seeds,
+        seeds: o.seeds_for(&s.world),
         window: o.window,
         eval_steps: 1000,
         baseline: false,

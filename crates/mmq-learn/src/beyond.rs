@@ -29,6 +29,9 @@ pub struct BeyondParams {
     pub significance: f64,
     /// Fit a reward per state (shared by its actions) besides the reward per pair: the
     /// sparsest explanation then credits a goal state rather than the pairs that enter it.
+    /// Off by default: on the 15×15 maze the state features explained the wall bumps of
+    /// corridor cells as a penalty on every action there, and `deconv-model` never
+    /// learned to stop bumping (docs/algorithms/beyond.md).
     pub state_rewards: bool,
     /// Refine the delay pmf by reweighted least squares on the stored history (each step
     /// weighted by the inverse variance of its delivery); false: plain least squares.
@@ -62,12 +65,12 @@ impl Default for BeyondParams {
             reward_prior: 1.0,
             lasso: 0.1,
             significance: 1.0,
-            state_rewards: true,
+            state_rewards: false,
             pmf_weighted: true,
             pmf_significance: 2.0,
             pmf_prior: 50.0,
             refit_every: 250,
-            optimism_visits: 1,
+            optimism_visits: 10,
             replay_lag: 50,
             told_delay: None,
         }
