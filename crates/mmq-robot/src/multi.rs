@@ -160,14 +160,25 @@ impl MultiArena {
     /// Resets every arena: arena k as [`mmq_core::Env::reset`]`(seeds[k], start)` would
     /// reset a [`RobotEnv`](crate::RobotEnv). The rapier world is rebuilt from scratch
     /// (no solver cache survives), so all arenas reset together. Returns the start states.
+    /// After an error (an invalid [`Start::State`]) every arena reports an error until a
+    /// reset succeeds.
     ///
     /// # Panics
     /// If `seeds.len()` is not the number of arenas.
     pub fn reset(&mut self, seeds: &[u64], start: Start) -> Result<Vec<State>, EnvError> {
         assert_eq!(seeds.len(), self.slots.len(), "one seed per arena");
         let mut poses = Vec::with_capacity(seeds.len());
-        for (slot, &seed) in self.slots.iter_mut().zip(seeds) {
-            poses.push(slot.core.reset(seed, start)?);
+        for (k, &seed) in seeds.iter().enumerate() {
+            match self.slots[k].core.reset(seed, start) {
+                Ok(p) => poses.push(p),
+                Err(e) => {
+                    // Half reset: no arena may step until a reset succeeds.
+                    for slot in &mut self.slots {
+                        slot.failed = true;
+                    }
+                    return Err(e);
+                }
+            }
         }
         self.phys = new_world(&self.template.walls, &self.template.cfg, Some(WALL_GROUPS));
         for (slot, &(x, y, theta)) in self.slots.iter_mut().zip(&poses) {

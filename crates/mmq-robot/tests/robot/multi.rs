@@ -148,4 +148,9 @@ fn a_bad_action_fails_its_arena_only() {
     env.reset(3, Start::World).unwrap();
     assert_eq!(env.step(1).unwrap(), *r[2].as_ref().unwrap());
     assert_eq!(m.step_all(&[1, 1, 1]).iter().filter(|r| r.is_ok()).count(), 3);
+    // A bad start fails the reset, and every arena until the next good one.
+    assert!(m.reset(&[1, 2, 3], Start::State(10_000)).is_err());
+    assert!(m.step_all(&[0, 0, 0]).iter().all(|r| r.is_err()));
+    assert_eq!(m.reset(&[1, 2, 3], Start::World).unwrap().len(), 3);
+    assert!(m.step_all(&[0, 0, 0]).iter().all(|r| r.is_ok()));
 }
