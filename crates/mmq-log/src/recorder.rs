@@ -239,12 +239,10 @@ pub struct McapRecorder {
     config: RecorderConfig,
     writer: Option<LogWriter<BufWriter<File>>>,
     channel_ids: [u16; NCH],
-    sequence: [u32; NCH],
     /// Messages written per channel slot, and their digest as last taken from the writer.
     topics: [TopicStats; NCH],
     stats: RecordStats,
     error: Option<LogError>,
-    pose: PoseJson,
     run: Option<Run>,
     /// Simulated time at the start of the current step, s (robot).
     step_start_s: f64,
@@ -336,11 +334,9 @@ impl McapRecorder {
             config,
             writer: Some(writer),
             channel_ids,
-            sequence: [0; NCH],
             topics: [TopicStats { count: 0, digest: DIGEST_START }; NCH],
             stats,
             error: None,
-            pose: PoseJson::default(),
             run: None,
             step_start_s: 0.0,
             time_offset_s: 0.0,
@@ -390,15 +386,14 @@ impl McapRecorder {
         self.writer = None;
     }
 
-    /// Writes one message, whose bytes `write` appends (straight into the open chunk).
+    /// Writes one message, whose bytes `write` appends.
     fn emit(&mut self, ch: Ch, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
         let Some(w) = self.writer.as_mut() else { return };
         let i = ch as usize;
-        if let Err(e) = w.message(self.channel_ids[i], self.sequence[i], log_time, write) {
+        if let Err(e) = w.message(self.channel_ids[i], log_time, write) {
             self.fail(e);
             return;
         }
-        self.sequence[i] = self.sequence[i].wrapping_add(1);
         self.topics[i].count += 1;
     }
 
@@ -437,18 +432,17 @@ impl McapRecorder {
         }
     }
 
-    /// `/tf` and `/robot/pose` at one pose. The JSON is written by hand (the numbers
-    /// formatted once for both messages), byte for byte as serde_json writes
-    /// [`m::FrameTransform`] and [`m::PoseInFrame`] (test `pose_json_is_serde_json_s`).
+    /// `/tf` and `/robot/pose` at one pose. The writer writes the JSON (by hand, byte for
+    /// byte as serde_json writes [`m::FrameTransform`] and [`m::PoseInFrame`]).
     fn write_pose(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
-        if self.writer.is_none() {
+        let Some(w) = self.writer.as_mut() else { return };
+        let (tf, pose) = (Ch::Tf as usize, Ch::Pose as usize);
+        if let Err(e) = w.pose(self.channel_ids[tf], self.channel_ids[pose], log_time, x, y, theta) {
+            self.fail(e);
             return;
         }
-        let mut pose = std::mem::take(&mut self.pose);
-        pose.set(log_time, x, y, theta);
-        self.emit(Ch::Tf, log_time, |out| pose.frame_transform(out));
-        self.emit(Ch::Pose, log_time, |out| pose.pose_in_frame(out));
-        self.pose = pose;
+        self.topics[tf].count += 1;
+        self.topics[pose].count += 1;
     }
 
     fn write_cell_pose(&mut self, log_time: u64, state: State) {
@@ -989,98 +983,6 @@ impl McapRecorder {
     }
 }
 
-/// The numbers of one pose, formatted once as serde_json formats them, for both pose
-/// messages; reused from pose to pose (no allocation).
-#[derive(Default)]
-struct PoseJson {
-    /// `"timestamp":{"sec":…,"nsec":…}`, then `{"x":…,"y":…,"z":0.0}` (position), then
-    /// `{"x":0.0,"y":0.0,"z":…,"w":…}` (orientation).
-    bytes: Vec<u8>,
-    /// Where the position starts.
-    position: usize,
-    /// Where the orientation starts.
-    orientation: usize,
-}
-
-/// Appends `v` as serde_json writes an `f64` (shortest round-trip form; `null` when not
-/// finite).
-fn json_f64(out: &mut Vec<u8>, v: f64) {
-    if v.to_bits() == 0 {
-        out.extend_from_slice(b"0.0");
-    } else if v.is_finite() {
-        out.extend_from_slice(zmij::Buffer::new().format_finite(v).as_bytes());
-    } else {
-        out.extend_from_slice(b"null");
-    }
-}
-
-impl PoseJson {
-    fn set(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
-        let t = m::Time::from_ns(log_time);
-        let q = m::Quaternion::yaw(theta);
-        let mut ib = itoa::Buffer::new();
-        let b = &mut self.bytes;
-        b.clear();
-        b.extend_from_slice(b"\"timestamp\":{\"sec\":");
-        b.extend_from_slice(ib.format(t.sec).as_bytes());
-        b.extend_from_slice(b",\"nsec\":");
-        b.extend_from_slice(ib.format(t.nsec).as_bytes());
-        b.push(b'}');
-        self.position = b.len();
-        b.extend_from_slice(b"{\"x\":");
-        json_f64(b, x);
-        b.extend_from_slice(b",\"y\":");
-        json_f64(b, y);
-        b.extend_from_slice(b",\"z\":0.0}");
-        self.orientation = b.len();
-        b.extend_from_slice(b"{\"x\":");
-        json_f64(b, q.x);
-        b.extend_from_slice(b",\"y\":");
-        json_f64(b, q.y);
-        b.extend_from_slice(b",\"z\":");
-        json_f64(b, q.z);
-        b.extend_from_slice(b",\"w\":");
-        json_f64(b, q.w);
-        b.push(b'}');
-    }
-
-    fn time(&self) -> &[u8] {
-        &self.bytes[..self.position]
-    }
-
-    fn position(&self) -> &[u8] {
-        &self.bytes[self.position..self.orientation]
-    }
-
-    fn orientation(&self) -> &[u8] {
-        &self.bytes[self.orientation..]
-    }
-
-    /// `foxglove.FrameTransform`, world → robot.
-    fn frame_transform(&self, out: &mut Vec<u8>) {
-        out.push(b'{');
-        out.extend_from_slice(self.time());
-        out.extend_from_slice(
-            b",\"parent_frame_id\":\"world\",\"child_frame_id\":\"robot\",\"translation\":",
-        );
-        out.extend_from_slice(self.position());
-        out.extend_from_slice(b",\"rotation\":");
-        out.extend_from_slice(self.orientation());
-        out.push(b'}');
-    }
-
-    /// `foxglove.PoseInFrame` in frame world.
-    fn pose_in_frame(&self, out: &mut Vec<u8>) {
-        out.push(b'{');
-        out.extend_from_slice(self.time());
-        out.extend_from_slice(b",\"frame_id\":\"world\",\"pose\":{\"position\":");
-        out.extend_from_slice(self.position());
-        out.extend_from_slice(b",\"orientation\":");
-        out.extend_from_slice(self.orientation());
-        out.extend_from_slice(b"}}");
-    }
-}
-
 /// A `foxglove.Grid` of one FLOAT32 field per cell, rows from the bottom of the map
 /// (y = 0) up, origin at the arena's bottom-left corner.
 pub(crate) fn heatmap(world: &World, log_time: u64, field: &str, per_cell: &[f64]) -> m::Grid {
@@ -1133,43 +1035,6 @@ mod tests {
         assert_eq!(c.trace_period_s(), 0.1);
         c.pose_rate_hz = 0.0;
         assert_eq!(c.trace_period_s(), RecorderConfig::FULL_TRACE_PERIOD_S);
-    }
-
-    #[test]
-    fn pose_json_is_serde_json_s() {
-        let mut r = 0x1234_5678_9abc_def0u64;
-        let mut next = || {
-            r = mmq_core::seed::splitmix64(r);
-            r
-        };
-        let mut values = vec![0.0, -0.0, 1.0, -1.5, 1e-300, 3.758157253265381, 1e21, f64::NAN, f64::INFINITY];
-        values.extend((0..200).map(|_| f64::from_bits(next() >> 2) % 1e3 - 500.0));
-        values.extend((0..50).map(|_| (next() as f32 / 7.0) as f64));
-        for (i, &v) in values.iter().enumerate() {
-            let (x, y, th) = (v, values[(i * 7 + 3) % values.len()], values[(i * 13 + 1) % values.len()]);
-            let t = [0, 999_999_999, 1_000_000_000, next(), u64::MAX][i % 5];
-            let mut p = PoseJson::default();
-            p.set(t, x, y, th);
-            let ts = m::Time::from_ns(t);
-            let mut got = Vec::new();
-            p.frame_transform(&mut got);
-            let tf = m::FrameTransform {
-                timestamp: ts,
-                parent_frame_id: "world".into(),
-                child_frame_id: "robot".into(),
-                translation: m::Vector3 { x, y, z: 0.0 },
-                rotation: m::Quaternion::yaw(th),
-            };
-            assert_eq!(String::from_utf8(got).unwrap(), serde_json::to_string(&tf).unwrap());
-            let mut got = Vec::new();
-            p.pose_in_frame(&mut got);
-            let pose = m::PoseInFrame {
-                timestamp: ts,
-                frame_id: "world".into(),
-                pose: m::Pose::planar(x, y, 0.0, th),
-            };
-            assert_eq!(String::from_utf8(got).unwrap(), serde_json::to_string(&pose).unwrap());
-        }
     }
 
     #[test]
