@@ -3,9 +3,12 @@
 //! - `record/grid`, `record/robot-like`: the recorder alone, per step: a grid run (paper
 //!   9×9, Poisson(5) delays, with the ledger) and a robot-like run (60 pose samples per
 //!   step thinned to 10 Hz), recorded to a temporary file; the steps are precomputed.
-//! - `robot/bare`, `robot/recorded`: a real robot run (rapier2d, paper 9×9, Poisson(13)
-//!   delays, seeded pseudo-random primitives) without and with recording at the default
-//!   pose rate, per primitive: the overhead as the runner sees it.
+//! - `robot/bare`, `robot/recorded`, `robot/recorded-inline`: a real robot run (rapier2d,
+//!   paper 9×9, Poisson(13) delays, seeded pseudo-random primitives) without and with
+//!   recording at the default pose rate, per primitive: the overhead as the runner sees
+//!   it, in wall time; `recorded` is the default (JSON of the poses, compression and
+//!   writing on the recorder's writer thread), `recorded-inline` does it all on the
+//!   run's thread (`RecorderConfig::writer_thread = false`; the same file).
 //!
 //! Bytes per step (per primitive) and the robot overhead are printed before the timings.
 
@@ -182,12 +185,26 @@ fn bench(c: &mut Criterion) {
 /// Primitives of one real robot run.
 const PRIMITIVES: u64 = 1000;
 
-/// Runs `PRIMITIVES` robot primitives, recorded to `path` when given (as the runner does:
-/// the ledger on, the trace at the recorder's period). Returns the file size.
-fn robot(world: &World, path: Option<&std::path::Path>) -> u64 {
+/// How a robot run is recorded: not, or to a file with or without the writer thread.
+#[derive(Clone, Copy)]
+enum Rec<'a> {
+    Bare,
+    To(&'a std::path::Path, bool),
+}
+
+/// Runs `PRIMITIVES` robot primitives, recorded as `how` says (as the runner does: the
+/// ledger on, the trace at the recorder's period). Returns the file size.
+fn robot(world: &World, how: Rec<'_>) -> u64 {
     let env = RobotEnv::new(world, RobotConfig::from_world(world).unwrap()).unwrap();
     let mut ch = DelayedReward::new(env, &DelayDist::Poisson(13.0), true);
-    let mut rec = path.map(|p| McapRecorder::create(RecorderConfig::new(p)).unwrap());
+    let mut rec = match how {
+        Rec::Bare => None,
+        Rec::To(p, thread) => {
+            let mut cfg = RecorderConfig::new(p);
+            cfg.writer_thread = thread;
+            Some(McapRecorder::create(cfg).unwrap())
+        }
+    };
     if let Some(r) = &rec {
         ch.env_mut().set_trace(r.trace_period_s());
     }
@@ -239,27 +256,34 @@ fn bench_robot(c: &mut Criterion) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("robot.mcap");
     let world = world("paper-9x9");
-    // A first look without criterion: mean of a few runs each way.
-    let time = |p: Option<&std::path::Path>| {
-        let start = std::time::Instant::now();
-        for _ in 0..3 {
-            robot(&world, p);
-        }
-        start.elapsed().as_secs_f64() / 3.0 / PRIMITIVES as f64 * 1e6
+    // A first look without criterion: the best of a few runs each way (wall time).
+    let time = |how: Rec<'_>| {
+        (0..5)
+            .map(|_| {
+                let start = std::time::Instant::now();
+                robot(&world, how);
+                start.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+            / PRIMITIVES as f64
+            * 1e6
     };
-    let bytes = robot(&world, Some(&path));
-    let (bare, recorded) = (time(None), time(Some(&path)));
+    let bytes = robot(&world, Rec::To(&path, true));
+    let (bare, recorded, inline) = (time(Rec::Bare), time(Rec::To(&path, true)), time(Rec::To(&path, false)));
+    let pct = |x: f64| 100.0 * (x - bare) / bare;
     println!(
-        "robot: {bare:.1} µs per primitive bare, {recorded:.1} recorded (+{:.0} %), {:.0} bytes per primitive \
-         ({bytes} bytes for {PRIMITIVES} primitives)",
-        100.0 * (recorded - bare) / bare,
+        "robot: {bare:.1} µs per primitive bare, {recorded:.1} recorded (+{:.0} %), {inline:.1} recorded \
+         inline (+{:.0} %); {:.0} bytes per primitive ({bytes} bytes for {PRIMITIVES} primitives)",
+        pct(recorded),
+        pct(inline),
         bytes as f64 / PRIMITIVES as f64
     );
     let mut g = c.benchmark_group("robot");
     g.throughput(Throughput::Elements(PRIMITIVES));
     g.sample_size(10);
-    g.bench_function("bare", |b| b.iter(|| black_box(robot(&world, None))));
-    g.bench_function("recorded", |b| b.iter(|| black_box(robot(&world, Some(&path)))));
+    g.bench_function("bare", |b| b.iter(|| black_box(robot(&world, Rec::Bare))));
+    g.bench_function("recorded", |b| b.iter(|| black_box(robot(&world, Rec::To(&path, true)))));
+    g.bench_function("recorded-inline", |b| b.iter(|| black_box(robot(&world, Rec::To(&path, false)))));
     g.finish();
 }
 

@@ -20,10 +20,11 @@
 //! prefix; [`McapRecorder::finish`] (called by `on_finish`, and by `Drop` as a last
 //! resort) writes the summary section that makes the file complete.
 //!
-//! Messages are built and put into chunks on the recording thread; closed chunks are
-//! compressed and written by a writer thread of the recorder's own (see
-//! [`RecorderConfig::writer_thread`]), which a flush waits for and `finish` joins. The
-//! file is the same byte for byte with or without that thread.
+//! The recording thread serializes the messages (poses: only their numbers) and hands
+//! them over in batches to a writer thread of the recorder's own (see
+//! [`RecorderConfig::writer_thread`]), which writes the pose JSON, fills, compresses and
+//! writes the chunks; a flush waits for it and `finish` joins it. The file is the same
+//! byte for byte with or without that thread.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -86,9 +87,9 @@ pub struct RecorderConfig {
     /// zstd level of the chunks (default 1, [`Self::DEFAULT_COMPRESSION_LEVEL`]); negative
     /// levels compress faster into larger files, higher ones slower into smaller files.
     pub compression_level: i32,
-    /// Compress and write chunks on a thread of the recorder's own (default `true`), so
-    /// the run waits for neither zstd nor the disk; `false` does it on the recording
-    /// thread. The file is the same byte for byte either way.
+    /// Write the pose JSON, compress and write the chunks on a thread of the recorder's
+    /// own (default `true`), so the run waits for neither zstd nor the disk; `false` does
+    /// it on the recording thread. The file is the same byte for byte either way.
     pub writer_thread: bool,
 }
 
