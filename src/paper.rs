@@ -149,7 +149,7 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
             Part::Beyond => {
                 let mut bo = mmq_lab::beyond::BeyondOptions::new(a.quick);
                 if let Some(n) = a.seeds {
-                    (bo.seeds, bo.maze_seeds) = (n, n);
+                    bo.set_all_seeds(n);
                 }
                 if let Some(s) = a.steps {
                     bo.steps = s;
