@@ -698,14 +698,14 @@ impl RobotEnv {
     /// One physics step under the commanded twist, with contact bookkeeping and the
     /// runaway checks. Allocates nothing unless tracing records a contact.
     fn physics_step(&mut self, v_cmd: f64, w_cmd: f64) -> Result<(), EnvError> {
-        let robot = self.scene.robot;
-        self.core.drive_body(&mut self.scene.phys.bodies[robot], v_cmd, w_cmd);
-        let params = &self.scene.phys.integration_parameters;
-        let rb = &self.scene.phys.bodies[robot];
-        if self.core.is_free(rb, params) {
-            let params = *params;
-            Core::free_flight(&mut self.scene.phys.bodies[robot], &params);
-            return self.check_runaway();
+        let phys = &mut self.scene.phys;
+        let quarantined = !phys.quarantine().bodies().is_empty();
+        let rb = &mut phys.bodies[self.scene.robot];
+        self.core.drive_body(rb, v_cmd, w_cmd);
+        if self.core.is_free(rb, &phys.integration_parameters) {
+            Core::free_flight(rb, &phys.integration_parameters);
+            // The quarantine is the last rapier step's (it failed then if it held the robot).
+            return self.core.check_runaway(rb, quarantined);
         }
         self.scene.phys.step_with_events(&(), &self.collector);
         self.core.counts.rapier_steps += 1;
