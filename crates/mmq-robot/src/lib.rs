@@ -1,6 +1,9 @@
 //! mmq-robot: a rapier2d differential-drive robot in the grid arena, as an
 //! [`mmq_core::Env`] whose actions are motion primitives between cells.
 //!
+//! [`MultiArena`] runs N arenas in one rapier world in lock-step, bit-identical to one
+//! [`RobotEnv`] per seed (`docs/robot.md`, "Many arenas in one world").
+//!
 //! Architecture invariant: this is the only crate of mmq that knows rapier. It knows no
 //! learner and no log format; what loggers need (poses, contacts, build features) goes
 //! out through the `Env` trait and [`features`].

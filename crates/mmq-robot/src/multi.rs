@@ -7,30 +7,30 @@
 //! instead would change the f32 coordinates, and with them the rounding of every
 //! position update and contact, so no arena could reproduce a single-arena run.
 //!
-//! Each arena keeps everything of [`RobotEnv`] but its rapier body (drive, controllers,
-//! noise stream, clock, counters, trace) in the same code ([`Core`], [`PrimRun`]).
+//! Each arena keeps everything of [`RobotEnv`](crate::RobotEnv) but its rapier body (drive, controllers,
+//! noise stream, clock, counters, trace) in the same code (`Core`, `PrimRun` in `env.rs`).
 //! [`MultiArena::step_all`] runs one primitive in every arena, physics step by physics
 //! step:
 //!
 //! 1. every arena whose primitive is still running commands its drive;
 //! 2. if all of them are in free flight (see `docs/robot.md`), they are integrated
-//!    without rapier, exactly as [`RobotEnv`] does; otherwise rapier steps the whole
+//!    without rapier, exactly as [`RobotEnv`](crate::RobotEnv) does; otherwise rapier steps the whole
 //!    world once: the running robots are integrated and solved by rapier;
 //! 3. an arena whose primitive has ended **waits**: before a rapier step its robot's
 //!    velocity is set to zero, after it its pose and velocity are put back, so that it
-//!    starts its next primitive as a [`RobotEnv`] would (which does not simulate between
+//!    starts its next primitive as a [`RobotEnv`](crate::RobotEnv) would (which does not simulate between
 //!    primitives). Far from the walls (every primitive but a time-out ends at a cell
 //!    centre) rapier finds nothing to do for it. Within reach of a wall, rapier may
-//!    report a contact start or stop for the waiting robot; a [`RobotEnv`] sees the same
+//!    report a contact start or stop for the waiting robot; a [`RobotEnv`](crate::RobotEnv) sees the same
 //!    report on its next rapier step (same pose, and a robot in contact is never in free
 //!    flight), so it is held back and delivered on the arena's next rapier step. Such
 //!    waits are counted ([`MultiArena::near_wall_waits`]).
 //!
 //! Contact reports of one physics step may come in another order than in a
-//! [`RobotEnv`] (rapier lists them in the order of its pair graph, which depends on the
+//! [`RobotEnv`](crate::RobotEnv) (rapier lists them in the order of its pair graph, which depends on the
 //! other robots); everything else is the same.
 //!
-//! Whether the result is bit-identical to one [`RobotEnv`] per seed is tested in
+//! Whether the result is bit-identical to one [`RobotEnv`](crate::RobotEnv) per seed is tested in
 //! `tests/robot/multi.rs`; see `docs/robot.md`, "Many arenas in one world".
 
 use mmq_core::{Action, EnvError, Event, PoseSample, Start, State, Step, StepTrace, World};
@@ -158,7 +158,7 @@ impl MultiArena {
     }
 
     /// Resets every arena: arena k as [`mmq_core::Env::reset`]`(seeds[k], start)` would
-    /// reset a [`RobotEnv`](crate::RobotEnv). The rapier world is rebuilt from scratch
+    /// reset a [`RobotEnv`](crate::RobotEnv)(crate::RobotEnv). The rapier world is rebuilt from scratch
     /// (no solver cache survives), so all arenas reset together. Returns the start states.
     /// After an error (an invalid [`Start::State`]) every arena reports an error until a
     /// reset succeeds.
@@ -201,7 +201,7 @@ impl MultiArena {
     }
 
     /// One decision step in every arena: arena k runs `actions[k]` to its end, as
-    /// [`mmq_core::Env::step`] on a [`RobotEnv`](crate::RobotEnv) would. Arenas whose
+    /// [`mmq_core::Env::step`] on a [`RobotEnv`](crate::RobotEnv)(crate::RobotEnv) would. Arenas whose
     /// primitive ends early wait for the others. An arena that fails (invalid action,
     /// physics error) reports its error and, after a physics error, keeps reporting one
     /// until [`MultiArena::reset`]; the others go on.
@@ -371,7 +371,7 @@ impl MultiArena {
     }
 
     /// Statistics of arena `k` (as [`mmq_core::Env::stats`]; `robot/rapier_steps`
-    /// counts the steps on which a [`RobotEnv`](crate::RobotEnv) would have stepped rapier).
+    /// counts the steps on which a [`RobotEnv`](crate::RobotEnv)(crate::RobotEnv) would have stepped rapier).
     pub fn stats(&self, k: usize) -> Vec<(String, f64)> {
         self.slots[k].core.stats()
     }
