@@ -1,7 +1,7 @@
 //! A small MCAP writer for the recorder's hot path: JSON messages appended to an in-memory
-//! chunk ([`OpenChunk`], on the recording thread), each chunk compressed in one zstd call
-//! when it is full or flushed ([`McapOut::write_chunk`], on the writer thread or inline;
-//! see `writer.rs`).
+//! chunk ([`OpenChunk`]), each chunk compressed in one zstd call when it is full or
+//! flushed ([`McapOut::write_chunk`]); both on the recorder's writer thread, or inline
+//! (see `writer.rs`).
 //!
 //! It writes what the `mcap` crate's writer writes (same records, same layout: chunks with
 //! a message index per channel after each, a summary section with schemas, channels,
