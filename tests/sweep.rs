@@ -365,7 +365,11 @@ mod bad_specs {
         assert!(err.contains("noworld.toml:1:1: world: missing field `world`"), "{err}");
         std::fs::write(&p, "world = [\"nope.toml\"]\n").unwrap();
         let (_, err) = text(&mmq(&["sweep", &s(&p), "--out", &s(&d.path().join("o"))]));
-        assert!(err.contains("noworld.toml:1:9: world[0]: cannot read the world file"), "{err}");
+        assert!(
+            err.contains("noworld.toml:1:9: world[0]: ")
+                && err.contains("nope.toml: cannot read the world file"),
+            "{err}"
+        );
     }
 
     #[test]
