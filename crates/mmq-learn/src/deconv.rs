@@ -40,6 +40,8 @@
 
 use mmq_core::DelayDist;
 
+use crate::Table;
+
 /// Penalty of a pair feature relative to a state feature (state features on).
 const PAIR_PENALTY: f64 = 1.25;
 /// Reweighted passes of the pmf fit per refit.
@@ -299,6 +301,18 @@ impl Deconvolver {
     /// The delay pmf p̂(0..=K).
     pub fn pmf(&self) -> &[f64] {
         &self.pmf
+    }
+
+    /// R̂ (`r_hat`, shape [states, actions]) and p̂ (`delay_pmf`), for export.
+    pub fn tables(&self) -> [Table; 2] {
+        [
+            Table {
+                name: "r_hat".into(),
+                shape: vec![self.r.len() / self.num_actions, self.num_actions],
+                data: self.r.clone(),
+            },
+            Table { name: "delay_pmf".into(), shape: vec![self.pmf.len()], data: self.pmf.clone() },
+        ]
     }
 
     /// Snapshots of the delay estimate, every [`SNAPSHOT_EVERY`] steps.

@@ -15,17 +15,16 @@
 use mmq_core::{Action, Rng, State};
 
 use crate::deconv::{DeconvConfig, Deconvolver};
-use crate::policy::{argmax_random_tie, epsilon_greedy};
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table, max_of};
 
 /// Model-based learner on counted transitions and deconvolved rewards.
 #[derive(Clone, Debug)]
 pub struct DeconvModel {
     p: Params,
-    num_actions: usize,
-    /// Planned Q(s, a), [s × |A| + a].
-    q: Vec<f64>,
+    /// Planned Q(s, a).
+    q: QTable,
     /// max_a Q(s, a).
     v: Vec<f64>,
     /// N(s, a).
@@ -48,8 +47,7 @@ impl DeconvModel {
         let pairs = num_states * num_actions;
         Self {
             p,
-            num_actions,
-            q: vec![p.q0; pairs],
+            q: QTable::new(num_states, num_actions, p.q0),
             v: vec![p.q0; num_states],
             tries: vec![0; pairs],
             next: vec![Vec::new(); pairs],
@@ -58,13 +56,9 @@ impl DeconvModel {
         }
     }
 
-    fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
-    }
-
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 
     /// The deconvolver (R̂ and p̂).
@@ -74,7 +68,7 @@ impl DeconvModel {
 
     /// One Gauss–Seidel sweep of (M1) over every state, in state order.
     pub fn plan(&mut self) {
-        let (a_n, gamma, q0, m) = (self.num_actions, self.p.gamma, self.p.q0, self.optimism_visits);
+        let (a_n, gamma, q0, m) = (self.q.num_actions(), self.p.gamma, self.p.q0, self.optimism_visits);
         for s in 0..self.v.len() {
             let mut best = f64::NEG_INFINITY;
             for a in 0..a_n {
@@ -102,14 +96,12 @@ impl Learner for DeconvModel {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
         Decision { action, model: None, explored }
     }
 
     fn observe(&mut self, e: &Experience<'_>) {
-        let i = e.state * self.num_actions + e.action;
+        let i = self.q.index(e.state, e.action);
         self.deconv.observe(i, e.reward);
         self.tries[i] += 1;
         let s2 = e.next_state as u32;
@@ -121,28 +113,17 @@ impl Learner for DeconvModel {
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        let n_s = self.v.len();
-        vec![
-            Table { name: "q".into(), shape: vec![n_s, self.num_actions], data: self.q.clone() },
-            Table {
-                name: "r_hat".into(),
-                shape: vec![n_s, self.num_actions],
-                data: self.deconv.rewards().to_vec(),
-            },
-            Table {
-                name: "delay_pmf".into(),
-                shape: vec![self.deconv.pmf().len()],
-                data: self.deconv.pmf().to_vec(),
-            },
-        ]
+        let mut t = vec![self.q.export("q")];
+        t.extend(self.deconv.tables());
+        t
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {

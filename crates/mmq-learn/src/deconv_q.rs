@@ -13,16 +13,15 @@
 use mmq_core::{Action, Rng, State};
 
 use crate::deconv::{DeconvConfig, Deconvolver};
-use crate::policy::{argmax_random_tie, epsilon_greedy};
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table, max_of};
 
 /// Q-learning on R̂.
 #[derive(Clone, Debug)]
 pub struct DeconvQ {
     p: Params,
-    num_actions: usize,
-    q: Vec<f64>,
+    q: QTable,
     deconv: Deconvolver,
     /// Steps after which a transition is learned a second time (0: never).
     replay_lag: usize,
@@ -44,8 +43,7 @@ impl DeconvQ {
     ) -> Self {
         Self {
             p,
-            num_actions,
-            q: vec![p.q0; num_states * num_actions],
+            q: QTable::new(num_states, num_actions, p.q0),
             deconv: Deconvolver::new(cfg, num_states, num_actions),
             replay_lag,
             history: vec![(0, 0, 0); replay_lag + 1],
@@ -53,13 +51,9 @@ impl DeconvQ {
         }
     }
 
-    fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
-    }
-
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 
     /// The deconvolver (R̂ and p̂).
@@ -70,8 +64,8 @@ impl DeconvQ {
     #[inline]
     fn learn(&mut self, s: usize, a: usize, s2: usize) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let m = max_of(self.row(s2));
-        let i = s * self.num_actions + a;
+        let m = max_of(self.q.row(s2));
+        let i = self.q.index(s, a);
         let r = self.deconv.reward(i);
         // eq. (2')
         self.q[i] += alpha * (r + gamma * m - self.q[i]);
@@ -84,14 +78,12 @@ impl Learner for DeconvQ {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
         Decision { action, model: None, explored }
     }
 
     fn observe(&mut self, e: &Experience<'_>) {
-        self.deconv.observe(e.state * self.num_actions + e.action, e.reward);
+        self.deconv.observe(self.q.index(e.state, e.action), e.reward);
         self.learn(e.state, e.action, e.next_state);
         if self.replay_lag > 0 {
             let n = self.history.len();
@@ -106,28 +98,17 @@ impl Learner for DeconvQ {
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        let n_s = self.q.len() / self.num_actions;
-        vec![
-            Table { name: "q".into(), shape: vec![n_s, self.num_actions], data: self.q.clone() },
-            Table {
-                name: "r_hat".into(),
-                shape: vec![n_s, self.num_actions],
-                data: self.deconv.rewards().to_vec(),
-            },
-            Table {
-                name: "delay_pmf".into(),
-                shape: vec![self.deconv.pmf().len()],
-                data: self.deconv.pmf().to_vec(),
-            },
-        ]
+        let mut t = vec![self.q.export("q")];
+        t.extend(self.deconv.tables());
+        t
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {

@@ -8,8 +8,9 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy, greedy_value};
+use crate::policy::greedy_value;
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table};
 
 /// Fixed-delay-estimate Q-learning.
@@ -17,8 +18,7 @@ use crate::{Decision, Experience, Learner, Table};
 pub struct FixedDelayQ {
     p: Params,
     lambda_hat: usize,
-    num_actions: usize,
-    q: Vec<f64>,
+    q: QTable,
     /// Last λ̂ + 1 transitions (s, a, s'), indexed by t mod (λ̂ + 1).
     history: Vec<(u32, u32, u32)>,
 }
@@ -29,19 +29,14 @@ impl FixedDelayQ {
         Self {
             p,
             lambda_hat,
-            num_actions,
-            q: vec![p.q0; num_states * num_actions],
+            q: QTable::new(num_states, num_actions, p.q0),
             history: vec![(0, 0, 0); lambda_hat + 1],
         }
     }
 
-    fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
-    }
-
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 }
 
@@ -51,9 +46,7 @@ impl Learner for FixedDelayQ {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
         Decision { action, model: Some(self.lambda_hat), explored }
     }
 
@@ -65,26 +58,23 @@ impl Learner for FixedDelayQ {
         }
         let (s, a, s2) = self.history[(e.t as usize - self.lambda_hat) % n];
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let m = greedy_value(self.row(s2 as usize));
-        let q = &mut self.q[s as usize * self.num_actions + a as usize];
+        let m = greedy_value(self.q.row(s2 as usize));
+        let i = self.q.index(s as usize, a as usize);
+        let q = &mut self.q[i];
         // eq. (4), in the paper's order of terms
         *q = *q + alpha * (e.reward + gamma * m) - alpha * *q;
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        vec![Table {
-            name: "q".into(),
-            shape: vec![self.q.len() / self.num_actions, self.num_actions],
-            data: self.q.clone(),
-        }]
+        vec![self.q.export("q")]
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {

@@ -28,6 +28,7 @@ pub mod q_lambda;
 pub mod qlearning;
 pub mod sarsa_lambda;
 pub mod spec;
+pub mod table;
 
 pub use spec::{LearnError, LearnerKind, LearnerSpec, build, catalogue};
 

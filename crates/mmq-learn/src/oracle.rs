@@ -15,16 +15,15 @@ use std::collections::HashMap;
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table, max_of};
 
 /// Q-learning with true credit assignment (needs [`Truth`](crate::Truth)).
 #[derive(Clone, Debug)]
 pub struct Oracle {
     p: Params,
-    num_actions: usize,
-    q: Vec<f64>,
+    q: QTable,
     /// Transitions whose reward is in flight, by emission step: (s, a, s').
     pending: HashMap<u64, (u32, u32, u32)>,
     /// Rewards credited on arrival.
@@ -34,16 +33,12 @@ pub struct Oracle {
 impl Oracle {
     /// A table for `num_states` × `num_actions`, every entry q0.
     pub fn new(p: Params, num_states: usize, num_actions: usize) -> Self {
-        Self { p, num_actions, q: vec![p.q0; num_states * num_actions], pending: HashMap::new(), credited: 0 }
-    }
-
-    fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
+        Self { p, q: QTable::new(num_states, num_actions, p.q0), pending: HashMap::new(), credited: 0 }
     }
 
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 
     /// Transitions whose reward has not arrived yet.
@@ -54,8 +49,9 @@ impl Oracle {
     #[inline]
     fn learn(&mut self, s: usize, a: usize, r: f64, s2: usize) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let m = max_of(self.row(s2));
-        let q = &mut self.q[s * self.num_actions + a];
+        let m = max_of(self.q.row(s2));
+        let i = self.q.index(s, a);
+        let q = &mut self.q[i];
         *q += alpha * (r + gamma * m - *q);
     }
 }
@@ -66,9 +62,7 @@ impl Learner for Oracle {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
         Decision { action, model: None, explored }
     }
 
@@ -93,19 +87,15 @@ impl Learner for Oracle {
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        vec![Table {
-            name: "q".into(),
-            shape: vec![self.q.len() / self.num_actions, self.num_actions],
-            data: self.q.clone(),
-        }]
+        vec![self.q.export("q")]
     }
 
     fn needs_truth(&self) -> bool {

@@ -16,8 +16,8 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table, max_of};
 
 /// Traces below this are dropped (their effect is below 1e-6 of one update).
@@ -68,8 +68,7 @@ impl Traces {
 pub struct QLambda {
     p: Params,
     trace_decay: f64,
-    num_actions: usize,
-    q: Vec<f64>,
+    q: QTable,
     traces: Traces,
     /// Traces cut by exploratory actions.
     cuts: u64,
@@ -81,20 +80,15 @@ impl QLambda {
         Self {
             p,
             trace_decay,
-            num_actions,
-            q: vec![p.q0; num_states * num_actions],
+            q: QTable::new(num_states, num_actions, p.q0),
             traces: Traces::default(),
             cuts: 0,
         }
     }
 
-    fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
-    }
-
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 
     /// The live traces.
@@ -109,9 +103,8 @@ impl Learner for QLambda {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
+        let row = self.q.row(s);
         if explored && row[action] < max_of(row) {
             self.traces.clear();
             self.cuts += 1;
@@ -121,27 +114,23 @@ impl Learner for QLambda {
 
     fn observe(&mut self, e: &Experience<'_>) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let i = e.state * self.num_actions + e.action;
-        let delta = e.reward + gamma * max_of(self.row(e.next_state)) - self.q[i];
+        let i = self.q.index(e.state, e.action);
+        let delta = e.reward + gamma * max_of(self.q.row(e.next_state)) - self.q[i];
         self.traces.replace(i);
         self.traces.apply(&mut self.q, alpha * delta);
         self.traces.decay(gamma * self.trace_decay);
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        vec![Table {
-            name: "q".into(),
-            shape: vec![self.q.len() / self.num_actions, self.num_actions],
-            data: self.q.clone(),
-        }]
+        vec![self.q.export("q")]
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {

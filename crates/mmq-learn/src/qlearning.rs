@@ -7,34 +7,33 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy, greedy_value};
+use crate::policy::greedy_value;
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table};
 
 /// Tabular Q-learning.
 #[derive(Clone, Debug)]
 pub struct QLearning {
     p: Params,
-    num_actions: usize,
-    /// Q[s × |A| + a].
-    q: Vec<f64>,
+    q: QTable,
 }
 
 impl QLearning {
     /// A table for `num_states` × `num_actions`, every entry `p.q0`.
     pub fn new(p: Params, num_states: usize, num_actions: usize) -> Self {
-        Self { p, num_actions, q: vec![p.q0; num_states * num_actions] }
+        Self { p, q: QTable::new(num_states, num_actions, p.q0) }
     }
 
     /// Q(s, ·).
     #[inline]
     pub fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
+        self.q.row(s)
     }
 
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 }
 
@@ -44,35 +43,30 @@ impl Learner for QLearning {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
         Decision { action, model: None, explored }
     }
 
     #[inline]
     fn observe(&mut self, e: &Experience<'_>) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
-        let m = greedy_value(self.row(e.next_state));
-        let q = &mut self.q[e.state * self.num_actions + e.action];
+        let m = greedy_value(self.q.row(e.next_state));
+        let i = self.q.index(e.state, e.action);
+        let q = &mut self.q[i];
         // eq. (2)
         *q += alpha * (e.reward + gamma * m - *q);
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        vec![Table {
-            name: "q".into(),
-            shape: vec![self.q.len() / self.num_actions, self.num_actions],
-            data: self.q.clone(),
-        }]
+        vec![self.q.export("q")]
     }
 }
 

@@ -14,9 +14,9 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
 use crate::q_lambda::Traces;
 use crate::spec::Params;
+use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table};
 
 /// SARSA(λ).
@@ -24,8 +24,7 @@ use crate::{Decision, Experience, Learner, Table};
 pub struct SarsaLambda {
     p: Params,
     trace_decay: f64,
-    num_actions: usize,
-    q: Vec<f64>,
+    q: QTable,
     traces: Traces,
     /// Step t waiting for a_{t+1}: (s_t, a_t, r_t, s_{t+1}).
     pending: Option<(u32, u32, f64, u32)>,
@@ -37,20 +36,15 @@ impl SarsaLambda {
         Self {
             p,
             trace_decay,
-            num_actions,
-            q: vec![p.q0; num_states * num_actions],
+            q: QTable::new(num_states, num_actions, p.q0),
             traces: Traces::default(),
             pending: None,
         }
     }
 
-    fn row(&self, s: State) -> &[f64] {
-        &self.q[s * self.num_actions..(s + 1) * self.num_actions]
-    }
-
     /// Q(s, a).
     pub fn q(&self, s: State, a: Action) -> f64 {
-        self.q[s * self.num_actions + a]
+        self.q.get(s, a)
     }
 }
 
@@ -60,9 +54,7 @@ impl Learner for SarsaLambda {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let row = self.row(s);
-        let (action, explored) =
-            epsilon_greedy(self.p.epsilon, self.num_actions, rng, |r| argmax_random_tie(row, r));
+        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
         Decision { action, model: None, explored }
     }
 
@@ -70,8 +62,8 @@ impl Learner for SarsaLambda {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
         if let Some((s, a, r, s2)) = self.pending.take() {
             if s2 as usize == e.state {
-                let i = s as usize * self.num_actions + a as usize;
-                let next = self.q[e.state * self.num_actions + e.action];
+                let i = self.q.index(s as usize, a as usize);
+                let next = self.q.get(e.state, e.action);
                 let delta = r + gamma * next - self.q[i];
                 self.traces.replace(i);
                 self.traces.apply(&mut self.q, alpha * delta);
@@ -84,19 +76,15 @@ impl Learner for SarsaLambda {
     }
 
     fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        argmax_random_tie(self.row(s), rng)
+        self.q.greedy(s, rng)
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.row(s));
+        out.copy_from_slice(self.q.row(s));
     }
 
     fn tables(&self) -> Vec<Table> {
-        vec![Table {
-            name: "q".into(),
-            shape: vec![self.q.len() / self.num_actions, self.num_actions],
-            data: self.q.clone(),
-        }]
+        vec![self.q.export("q")]
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {
