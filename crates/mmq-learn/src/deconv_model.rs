@@ -141,10 +141,7 @@ impl Learner for DeconvModel {
 mod tests {
     use super::*;
     use crate::deconv_q::tests::tiny_config;
-
-    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
-    }
+    use crate::exp;
 
     /// The trace of the deconv-q test (R̂ = (4, 2) after t = 3), planned by (M1) with one
     /// Gauss–Seidel sweep per step in state order; γ = 0.5, q0 = 0.

@@ -124,10 +124,7 @@ impl Learner for DeconvQ {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-
-    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
-    }
+    use crate::exp;
 
     /// K = 1 and the told pmf p = (½, ½), no penalties, a refit after 4 steps; two
     /// states with one action alternating 0 → 1 → 0 → ...

@@ -85,10 +85,7 @@ impl Learner for FixedDelayQ {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
-    }
+    use crate::exp;
 
     /// λ̂ = 2: the reward received at t = 2 updates the pair of t = 0, with the max taken
     /// at that pair's own next state.

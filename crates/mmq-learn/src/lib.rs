@@ -113,3 +113,9 @@ pub trait Learner: Send + std::fmt::Debug {
 pub(crate) fn max_of(xs: &[f64]) -> f64 {
     xs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
 }
+
+/// Test helper: the experience of step `t`, (s, a) → s2 with delivered reward `r`, no truth.
+#[cfg(test)]
+pub(crate) fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
+    Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
+}

@@ -445,13 +445,10 @@ impl MultipleModelQ {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::exp;
     use crate::mmq_reference::MmqReference;
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
-
-    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
-    }
 
     /// Algorithm 1 by hand: λ̂max = 1 (two models), 2 states, 1 action, α = 0.5,
     /// γ = 0.5, q0 = 0.

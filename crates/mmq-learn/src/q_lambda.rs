@@ -148,11 +148,8 @@ impl Learner for QLambda {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::exp;
     use mmq_core::seed::rng_from_seed;
-
-    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
-    }
 
     /// α = 0.5, γ = 0.5, β = 0.5 (γβ = 0.25), q0 = 0, 3 states × 2 actions.
     #[test]

@@ -73,10 +73,7 @@ impl Learner for QLearning {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
-    }
+    use crate::exp;
 
     /// Two hand-computed updates of eq. (2) with α = 0.1, γ = 0.9, q0 = 0.
     #[test]
