@@ -3,25 +3,12 @@
 //! with only the missing jobs; Ctrl-C stops at once and keeps finished results; bad
 //! specs and flags exit 3 with one line naming the file, line, column and field.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn root() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn mmq(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_mmq"))
-        .args(args)
-        .current_dir(root())
-        .output()
-        .expect("the mmq binary runs")
-}
-
-fn text(o: &Output) -> (String, String) {
-    (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())
-}
+mod common;
+use common::*;
 
 fn ok(o: Output) -> String {
     let (out, err) = text(&o);
