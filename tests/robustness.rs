@@ -61,13 +61,43 @@ mod interrupt {
         s
     }
 
+    /// `kill -SIGNAL PID`.
+    fn kill(signal: &str, pid: &str) {
+        let st = Command::new("kill").args([&format!("-{signal}"), pid]).status().expect("kill runs");
+        assert!(st.success(), "kill -{signal} {pid} failed");
+    }
+
+    /// Starts a recorded `mmq run` far longer than any test (3×3 world, 2 seeds × 50M
+    /// steps, 2 threads) writing into `out`, and waits until its logs have data.
+    fn start_recorded_run(out: &Path, env: &str) -> Child {
+        let dir = out.to_string_lossy().into_owned();
+        let mut child = spawn(&[
+            "--threads",
+            "2",
+            "run",
+            "--world",
+            "worlds/paper-3x3.toml",
+            "--env",
+            env,
+            "--steps",
+            "50000000",
+            "--seeds",
+            "2",
+            "--record",
+            "-q",
+            "--out",
+            &dir,
+        ]);
+        wait_for(&mut child, Duration::from_secs(60), || log_started(out));
+        child
+    }
+
     /// Sends `signal` (INT or TERM) with `kill`, then waits for the exit; returns the
     /// output and how long the exit took.
     fn signal_and_wait(child: Child, signal: &str) -> (Output, Duration) {
         let pid = child.id().to_string();
         let t0 = Instant::now();
-        let st = Command::new("kill").args([&format!("-{signal}"), &pid]).status().expect("kill runs");
-        assert!(st.success(), "kill -{signal} {pid} failed");
+        kill(signal, &pid);
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
             let _ = tx.send(child.wait_with_output());
@@ -103,25 +133,7 @@ mod interrupt {
     fn run_stopped_by(signal: &str, env: &str) {
         let _g = heavy();
         let d = tempfile::tempdir().unwrap();
-        let out = d.path().to_string_lossy().into_owned();
-        let mut child = spawn(&[
-            "--threads",
-            "2",
-            "run",
-            "--world",
-            "worlds/paper-3x3.toml",
-            "--env",
-            env,
-            "--steps",
-            "50000000",
-            "--seeds",
-            "2",
-            "--record",
-            "-q",
-            "--out",
-            &out,
-        ]);
-        wait_for(&mut child, Duration::from_secs(60), || log_started(d.path()));
+        let child = start_recorded_run(d.path(), env);
         std::thread::sleep(Duration::from_millis(1000));
         let (o, took) = signal_and_wait(child, signal);
         let (stdout, stderr) = text(&o);
@@ -166,28 +178,11 @@ mod interrupt {
     fn run_killed_by(signals: &[&str]) {
         let _g = heavy();
         let d = tempfile::tempdir().unwrap();
-        let out = d.path().to_string_lossy().into_owned();
-        let mut child = spawn(&[
-            "--threads",
-            "2",
-            "run",
-            "--world",
-            "worlds/paper-3x3.toml",
-            "--steps",
-            "50000000",
-            "--seeds",
-            "2",
-            "--record",
-            "-q",
-            "--out",
-            &out,
-        ]);
-        wait_for(&mut child, Duration::from_secs(60), || log_started(d.path()));
+        let child = start_recorded_run(d.path(), "grid");
         std::thread::sleep(Duration::from_millis(500));
         let pid = child.id().to_string();
         for sig in signals {
-            let st = Command::new("kill").args([&format!("-{sig}"), &pid]).status().expect("kill runs");
-            assert!(st.success());
+            kill(sig, &pid);
         }
         let o = child.wait_with_output().unwrap();
         let what = signals.join("+");
