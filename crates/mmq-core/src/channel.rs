@@ -7,7 +7,8 @@
 //! evaluation, logging and the oracle learner only.
 
 use crate::delay::{DelayDist, DelaySampler};
-use crate::env::{Action, Env, EnvError, Start, State, Step};
+use crate::env::{Action, Env, EnvError, Start, State, Step, StepTrace};
+use crate::observer::StepRecord;
 use crate::seed::{Rng, rng_from_seed};
 
 /// One emitted reward as the ledger knows it.
@@ -209,6 +210,38 @@ impl<E: Env> DelayedReward<E> {
     /// Ids of the emissions delivered at the last step (with a ledger), in emission order.
     pub fn delivered_ids(&self) -> &[u64] {
         &self.delivered_ids
+    }
+    /// What an observer is told of the step `st` just taken from `state` with `action`
+    /// (`model`, `explored`: the learner's decision; `trace`: the step's continuous-time
+    /// detail, taken from the environment).
+    pub fn record<'a>(
+        &'a self,
+        state: State,
+        action: Action,
+        model: Option<usize>,
+        explored: bool,
+        st: &DelayedStep,
+        trace: &'a StepTrace,
+    ) -> StepRecord<'a>
+    where
+        E: Env,
+    {
+        StepRecord {
+            t: st.t,
+            state,
+            action,
+            model,
+            explored,
+            next_state: st.step.state,
+            emitted: st.step.reward,
+            event: st.step.event,
+            delay: st.delay,
+            delivered: st.delivered,
+            delivered_ids: &self.delivered_ids,
+            ledger: self.ledger.as_ref(),
+            sim_time_s: self.env.sim_time_s(),
+            trace,
+        }
     }
     /// Unwraps the environment.
     pub fn into_inner(self) -> E {

@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use mmq_core::{
-    DelayDist, DelayedReward, Env, Event, Observer, Optimum, RunInfo, SeedTree, Start, StepRecord, StepTrace,
-    Stream, World,
+    DelayDist, DelayedReward, Env, Event, Observer, Optimum, RunInfo, SeedTree, Start, StepTrace, Stream,
+    World,
 };
 use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
@@ -318,22 +318,7 @@ fn learn<E: Env>(
         pending_progress += 1;
         if let Some(o) = observer.as_mut() {
             ch.env_mut().take_trace(&mut trace);
-            o.on_step(&StepRecord {
-                t,
-                state: s,
-                action: d.action,
-                model: d.model,
-                explored: d.explored,
-                next_state: st.step.state,
-                emitted: st.step.reward,
-                event: st.step.event,
-                delay: st.delay,
-                delivered: st.delivered,
-                delivered_ids: ch.delivered_ids(),
-                ledger: ch.ledger(),
-                sim_time_s: ch.env().sim_time_s(),
-                trace: &trace,
-            });
+            o.on_step(&ch.record(s, d.action, d.model, d.explored, &st, &trace));
             if (t + 1) % table_every == 0 {
                 let (visits, values) = cell_tables(ch.env(), &*learner, &traj.visits);
                 o.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);

@@ -231,22 +231,7 @@ fn robot(world: &World, how: Rec<'_>) -> u64 {
         let st = ch.step(a).unwrap();
         if let Some(r) = rec.as_mut() {
             ch.env_mut().take_trace(&mut trace);
-            r.on_step(&StepRecord {
-                t,
-                state: s,
-                action: a,
-                model: Some(3),
-                explored: false,
-                next_state: st.step.state,
-                emitted: st.step.reward,
-                event: st.step.event,
-                delay: st.delay,
-                delivered: st.delivered,
-                delivered_ids: ch.delivered_ids(),
-                ledger: ch.ledger(),
-                sim_time_s: ch.env().sim_time_s(),
-                trace: &trace,
-            });
+            r.on_step(&ch.record(s, a, Some(3), false, &st, &trace));
         }
         s = st.step.state;
     }

@@ -10,7 +10,7 @@
 use std::path::PathBuf;
 
 use mmq_core::seed::splitmix64;
-use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepRecord, StepTrace, World};
+use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepTrace, World};
 use mmq_grid::GridEnv;
 use mmq_log::{McapRecorder, RecorderConfig, read_log, render, summary};
 
@@ -48,22 +48,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let a = if r % 10 < 4 { [0, 3][(r >> 8) as usize % 2] } else { ((r >> 16) % 4) as usize };
         let st = ch.step(a)?;
         visits[s] += 1.0;
-        rec.on_step(&StepRecord {
-            t,
-            state: s,
-            action: a,
-            model: None,
-            explored: true,
-            next_state: st.step.state,
-            emitted: st.step.reward,
-            event: st.step.event,
-            delay: st.delay,
-            delivered: st.delivered,
-            delivered_ids: ch.delivered_ids(),
-            ledger: ch.ledger(),
-            sim_time_s: ch.env().sim_time_s(),
-            trace: &trace,
-        });
+        rec.on_step(&ch.record(s, a, None, true, &st, &trace));
         if (t + 1) % 500 == 0 {
             let values: Vec<f64> = visits.iter().map(|v| v / (t + 1) as f64).collect();
             rec.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);

@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepRecord, StepTrace, World};
+use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepTrace, World};
 use mmq_grid::GridEnv;
 use mmq_log::{LogContents, McapRecorder, RecorderConfig, read_log};
 use proptest::prelude::*;
@@ -41,22 +41,7 @@ fn recording() -> &'static (Vec<u8>, LogContents) {
         for t in 0..steps {
             let a = (t as usize * 7 + t as usize / 3) % 4;
             let st = ch.step(a).unwrap();
-            rec.on_step(&StepRecord {
-                t,
-                state: s,
-                action: a,
-                model: None,
-                explored: false,
-                next_state: st.step.state,
-                emitted: st.step.reward,
-                event: st.step.event,
-                delay: st.delay,
-                delivered: st.delivered,
-                delivered_ids: ch.delivered_ids(),
-                ledger: ch.ledger(),
-                sim_time_s: ch.env().sim_time_s(),
-                trace: &trace,
-            });
+            rec.on_step(&ch.record(s, a, None, false, &st, &trace));
             s = st.step.state;
         }
         rec.on_finish(steps, true);

@@ -73,22 +73,7 @@ pub fn run_grid(
         let a = action_of(seed, t);
         let st = ch.step(a).unwrap();
         visits[s] += 1.0;
-        let rec = StepRecord {
-            t,
-            state: s,
-            action: a,
-            model: (t % 7 != 0).then_some((t % 3) as usize),
-            explored: t % 5 == 0,
-            next_state: st.step.state,
-            emitted: st.step.reward,
-            event: st.step.event,
-            delay: st.delay,
-            delivered: st.delivered,
-            delivered_ids: ch.delivered_ids(),
-            ledger: ch.ledger(),
-            sim_time_s: ch.env().sim_time_s(),
-            trace: &trace,
-        };
+        let rec = ch.record(s, a, (t % 7 != 0).then_some((t % 3) as usize), t % 5 == 0, &st, &trace);
         obs.on_step(&rec);
         out.push(StepLog {
             t,

@@ -2,7 +2,7 @@
 //! forward, poses stay in the arena, every message validates, and the decisions match
 //! the run.
 
-use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepRecord, StepTrace};
+use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepTrace};
 use mmq_log::messages::topics;
 use mmq_log::{McapRecorder, RecorderConfig, read_log};
 use mmq_robot::{RobotConfig, RobotEnv};
@@ -38,22 +38,7 @@ fn a_recorded_robot_run_reads_back_in_order() {
         let a = [0, 3, 0, 3, 1, 2][t as usize % 6] % ch.env().num_actions();
         let st = ch.step(a).unwrap();
         ch.env_mut().take_trace(&mut trace);
-        rec.on_step(&StepRecord {
-            t,
-            state: s,
-            action: a,
-            model: None,
-            explored: false,
-            next_state: st.step.state,
-            emitted: st.step.reward,
-            event: st.step.event,
-            delay: st.delay,
-            delivered: st.delivered,
-            delivered_ids: ch.delivered_ids(),
-            ledger: ch.ledger(),
-            sim_time_s: ch.env().sim_time_s(),
-            trace: &trace,
-        });
+        rec.on_step(&ch.record(s, a, None, false, &st, &trace));
         want.push((t, s as u64, a as u64, st.step.state as u64));
         s = st.step.state;
     }
