@@ -211,6 +211,12 @@ impl<E: Env> DelayedReward<E> {
     pub fn delivered_ids(&self) -> &[u64] {
         &self.delivered_ids
     }
+    /// (emission step, value) of every emission delivered at the last step, in emission
+    /// order (empty without a ledger): the ground truth the oracle learns from.
+    pub fn delivered_emissions(&self) -> impl Iterator<Item = (u64, f64)> + '_ {
+        let ledger = self.ledger.as_ref();
+        self.delivered_ids.iter().filter_map(move |&i| ledger?.get(i)).map(|e| (e.t_emit, e.value))
+    }
     /// What an observer is told of the step `st` just taken from `state` with `action`
     /// (`model`, `explored`: the learner's decision; `trace`: the step's continuous-time
     /// detail, taken from the environment).

@@ -293,12 +293,9 @@ fn learn<E: Env>(
         let d = learner.act(s, &mut rng);
         let st = ch.step(d.action).map_err(env_err)?;
         if needs_truth {
-            let l = ch.ledger().expect("ledger kept for learners that need truth");
             truth.emitted_now = st.delay.map(|_| st.step.reward);
             truth.delivered.clear();
-            truth
-                .delivered
-                .extend(ch.delivered_ids().iter().filter_map(|&i| l.get(i)).map(|e| (e.t_emit, e.value)));
+            truth.delivered.extend(ch.delivered_emissions());
         }
         learner.observe(&Experience {
             t,

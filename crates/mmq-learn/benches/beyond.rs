@@ -36,12 +36,9 @@ fn run(spec: &LearnerSpec, w: &World) -> f64 {
         let d = learner.act(s, &mut rng);
         let st = ch.step(d.action).unwrap();
         if needs_truth {
-            let l = ch.ledger().unwrap();
             truth.emitted_now = st.delay.map(|_| st.step.reward);
             truth.delivered.clear();
-            truth
-                .delivered
-                .extend(ch.delivered_ids().iter().filter_map(|&i| l.get(i)).map(|e| (e.t_emit, e.value)));
+            truth.delivered.extend(ch.delivered_emissions());
         }
         learner.observe(&Experience {
             t,
