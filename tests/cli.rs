@@ -17,8 +17,7 @@ mod bad_input {
             if p.extension().is_none_or(|x| x != "toml") {
                 continue;
             }
-            let src = std::fs::read_to_string(&p).unwrap();
-            let expect = src.lines().next().unwrap().trim_start_matches("# expect:").trim().to_string();
+            let expect = expectation(&p);
             let rel = format!("tests/bad-input/{}", p.file_name().unwrap().to_string_lossy());
             let o = mmq(&["world", "check", &rel]);
             let (_, err) = text(&o);

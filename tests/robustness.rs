@@ -282,14 +282,6 @@ mod interrupt {
 mod bad_robot_worlds {
     use super::*;
 
-    /// The expected message of a corpus file: its first line, `# expect: ...`.
-    fn expectation(p: &Path) -> String {
-        let src = std::fs::read_to_string(p).unwrap();
-        let first = src.lines().next().unwrap_or_default();
-        assert!(first.starts_with("# expect:"), "{}: first line must be `# expect: ...`", p.display());
-        first.trim_start_matches("# expect:").trim().to_string()
-    }
-
     fn corpus(prefix: &str) -> Vec<PathBuf> {
         let mut v: Vec<PathBuf> = std::fs::read_dir(root().join("tests/bad-input"))
             .unwrap()

@@ -30,3 +30,11 @@ pub fn read_json(p: &Path) -> serde_json::Value {
     let s = std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
     serde_json::from_str(&s).unwrap_or_else(|e| panic!("{}: {e}: {s}", p.display()))
 }
+
+/// The expected message of a bad-input corpus file: its first line, `# expect: TEXT`.
+pub fn expectation(p: &Path) -> String {
+    let src = std::fs::read_to_string(p).unwrap();
+    let first = src.lines().next().unwrap_or_default();
+    assert!(first.starts_with("# expect:"), "{}: first line must be `# expect: ...`", p.display());
+    first.trim_start_matches("# expect:").trim().to_string()
+}
