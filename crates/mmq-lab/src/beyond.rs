@@ -23,6 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::paper::Group;
+use crate::sweep::csv_field;
 
 /// Every learner of the study, in report order.
 pub const LEARNERS: [LearnerKind; 7] = [
@@ -336,8 +337,8 @@ pub fn outcomes_csv(outs: &[Outcome]) -> String {
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            st.world,
-            st.delay,
+            csv_field(&st.world),
+            csv_field(&st.delay),
             st.epsilon,
             st.learner.name(),
             st.told,
@@ -373,8 +374,8 @@ pub fn delay_csv(outs: &[Outcome]) -> Result<String, LabError> {
             let _ = writeln!(
                 s,
                 "{},{},{},{},{t},{},{},{},{},{tmed},{tmean}",
-                st.world,
-                st.delay,
+                csv_field(&st.world),
+                csv_field(&st.delay),
                 st.epsilon,
                 st.learner.name(),
                 m.mean,
@@ -394,8 +395,8 @@ pub fn pmf_csv(outs: &[Outcome]) -> Result<String, LabError> {
         let st = &o.setting;
         let (tp, _, _) = truth(&st.delay)?;
         for (k, (pe, pt)) in o.pmf.iter().zip(&tp).enumerate() {
-            let _ =
-                writeln!(s, "{},{},{},{},{k},{pe},{pt}", st.world, st.delay, st.epsilon, st.learner.name());
+            let (world, delay) = (csv_field(&st.world), csv_field(&st.delay));
+            let _ = writeln!(s, "{world},{delay},{},{},{k},{pe},{pt}", st.epsilon, st.learner.name());
         }
     }
     Ok(s)
@@ -404,6 +405,56 @@ pub fn pmf_csv(outs: &[Outcome]) -> Result<String, LabError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The WiFi histogram's spec holds commas: every CSV quotes it, so each row has the
+    /// header's number of fields when read by a CSV reader (RFC 4180 quoting).
+    #[test]
+    fn csv_rows_quote_delay_specs_with_commas() {
+        let m = |x: f64| mean_ci(&[x]);
+        let o = Outcome {
+            setting: Setting {
+                world: "paper-9x9".into(),
+                delay: WIFI_HIST.into(),
+                delay_label: "wifi".into(),
+                epsilon: 0.05,
+                learner: LearnerKind::DeconvQ,
+                told: false,
+            },
+            n: 1,
+            relative: m(1.0),
+            fraction: m(0.9),
+            greedy: m(0.58),
+            greedy_min: 0.58,
+            greedy_optimal: 1,
+            seconds: m(2.0),
+            median_curve: vec![(50_000, m(3.0))],
+            mean_curve: vec![(50_000, m(4.0))],
+            pmf: vec![1.0 / 51.0; 51],
+            median_error_max: Some(0.5),
+            lobes: None,
+        };
+        let fields = |line: &str| {
+            let (mut n, mut quoted) = (1, false);
+            for ch in line.chars() {
+                match ch {
+                    '"' => quoted = !quoted,
+                    ',' if !quoted => n += 1,
+                    _ => {}
+                }
+            }
+            n
+        };
+        for text in [outcomes_csv(&[o.clone()]), delay_csv(&[o.clone()]).unwrap(), pmf_csv(&[o]).unwrap()] {
+            let mut lines = text.lines();
+            let header = fields(lines.next().unwrap());
+            let rows: Vec<&str> = lines.collect();
+            assert!(!rows.is_empty());
+            for row in rows {
+                assert_eq!(fields(row), header, "{row}");
+                assert!(row.contains(&format!("\"{WIFI_HIST}\"")), "{row}");
+            }
+        }
+    }
 
     #[test]
     fn every_setting_builds_a_valid_config() {

@@ -951,7 +951,7 @@ fn is_result_metric(k: &str) -> bool {
 }
 
 /// A CSV field, quoted when needed.
-fn csv_field(s: &str) -> String {
+pub(crate) fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n', '\r']) || s.starts_with(' ') || s.ends_with(' ') {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
