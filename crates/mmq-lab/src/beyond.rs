@@ -444,7 +444,8 @@ mod tests {
             }
             n
         };
-        for text in [outcomes_csv(&[o.clone()]), delay_csv(&[o.clone()]).unwrap(), pmf_csv(&[o]).unwrap()] {
+        let os = [o];
+        for text in [outcomes_csv(&os), delay_csv(&os).unwrap(), pmf_csv(&os).unwrap()] {
             let mut lines = text.lines();
             let header = fields(lines.next().unwrap());
             let rows: Vec<&str> = lines.collect();

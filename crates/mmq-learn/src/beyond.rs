@@ -33,15 +33,24 @@ pub struct BeyondParams {
     /// corridor cells as a penalty on every action there, and `deconv-model` never
     /// learned to stop bumping (docs/algorithms/beyond.md).
     pub state_rewards: bool,
+    /// κ_J ≥ 0: after the lasso, a pair keeps its reward only if it is also significant
+    /// jointly with the other rewarded pairs (more than κ_J times the lasso's threshold
+    /// in joint standard errors); the least significant is dropped and the rest refitted.
+    /// 0 turns the test off. Pair features only (ignored with `state_rewards`). On by
+    /// default (1): without it, a corridor step and its way back on the 15×15 maze
+    /// could carry +11 and −11, a loop `deconv-model` chased (docs/algorithms/beyond.md).
+    pub joint_test: f64,
     /// Refine the delay pmf by reweighted least squares on the stored history (each step
     /// weighted by the inverse variance of its delivery); false: plain least squares.
     pub pmf_weighted: bool,
     /// κ_p ≥ 0, in the reweighted fit: a delay keeps its estimated probability only with more than κ_p
     /// standard errors of evidence (0: plain least squares, whose non-negativity turns
-    /// noise into spurious mass at every delay).
+    /// noise into spurious mass at every delay). Default 3 (was 2; see `pmf_prior`).
     pub pmf_significance: f64,
     /// ν ≥ 0: pull of the delay-pmf fit towards the uniform pmf, worth ν visits of the
     /// largest reward; it fades as rewards come in, so that early fits stay broad.
+    /// Default 5 (was 50: where the data hardly tell delays apart, the pull towards the
+    /// uniform pmf on 0..=K put mass at long delays and the median came out high).
     pub pmf_prior: f64,
     /// Steps between two refits of R̂ and the delay pmf early on (≥ 1); later refits
     /// come every max(refit_every, t/8) steps.
@@ -66,9 +75,10 @@ impl Default for BeyondParams {
             lasso: 0.1,
             significance: 1.0,
             state_rewards: false,
+            joint_test: 1.0,
             pmf_weighted: true,
-            pmf_significance: 2.0,
-            pmf_prior: 50.0,
+            pmf_significance: 3.0,
+            pmf_prior: 5.0,
             refit_every: 250,
             optimism_visits: 10,
             replay_lag: 50,
@@ -97,15 +107,22 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
             "use a multiple of the universal threshold ≥ 0, e.g. 1",
         );
     }
+    if !(b.joint_test.is_finite() && b.joint_test >= 0.0) {
+        return bad(
+            "joint_test",
+            b.joint_test.to_string(),
+            "use a multiple of the lasso's threshold ≥ 0, e.g. 1 (0: off)",
+        );
+    }
     if !(b.pmf_significance.is_finite() && b.pmf_significance >= 0.0) {
         return bad(
             "pmf_significance",
             b.pmf_significance.to_string(),
-            "use a number of standard errors ≥ 0, e.g. 2",
+            "use a number of standard errors ≥ 0, e.g. 3",
         );
     }
     if !(b.pmf_prior.is_finite() && b.pmf_prior >= 0.0) {
-        return bad("pmf_prior", b.pmf_prior.to_string(), "use a prior weight ≥ 0 in visits, e.g. 50");
+        return bad("pmf_prior", b.pmf_prior.to_string(), "use a prior weight ≥ 0 in visits, e.g. 5");
     }
     if b.refit_every == 0 {
         return bad("refit_every", "0".into(), "use at least 1 step between refits, e.g. 250");
@@ -149,6 +166,7 @@ pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
         lasso: b.lasso,
         significance: b.significance,
         state_rewards: b.state_rewards,
+        joint_test: b.joint_test,
         pmf_weighted: b.pmf_weighted,
         pmf_significance: b.pmf_significance,
         pmf_prior: b.pmf_prior,

@@ -135,6 +135,7 @@ pub(crate) mod tests {
             lasso: 0.0,
             significance: 0.0,
             state_rewards: false,
+            joint_test: 0.0,
             pmf_weighted: false,
             pmf_significance: 0.0,
             pmf_prior: 0.0,
