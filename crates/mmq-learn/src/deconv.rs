@@ -562,10 +562,15 @@ impl Deconvolver {
                 (self.pmf, self.r, self.r_pair, self.r_state, self.rss) = warm;
             }
         }
-        if self.cfg.joint_test > 0.0 && !self.cfg.state_rewards {
+        if self.joint_on() {
             self.fit_rewards(sigma, true);
         }
         self.refits += 1;
+    }
+
+    /// Whether the joint test runs (on, and pair features only).
+    fn joint_on(&self) -> bool {
+        self.cfg.joint_test > 0.0 && !self.cfg.state_rewards
     }
 
     /// R given p: lasso by coordinate descent on (G, b), warm-started. Returns the
@@ -669,6 +674,12 @@ impl Deconvolver {
         for (gi, (_, members)) in groups.iter().enumerate() {
             gss[gi] = members.iter().map(|&i| members.iter().map(|&i2| g[i * n + i2]).sum::<f64>()).sum();
         }
+        // gr += d · G(i, ·): R̂ of compact pair i moved by d.
+        let shift = |gr: &mut [f64], i: usize, d: f64| {
+            for (gv, &gc) in gr.iter_mut().zip(&g[i * n..(i + 1) * n]) {
+                *gv += gc * d;
+            }
+        };
         // Pairs dropped by the joint test below; they stay at zero for this fit.
         let mut excluded = vec![false; n];
         // The joint test's active set (in the order of its inverse) and (G_S + ridge)⁻¹.
@@ -688,9 +699,7 @@ impl Deconvolver {
                             rs[gi] += d;
                             for &i in members {
                                 r[i] += d;
-                                for (gv, &gc) in gr.iter_mut().zip(&g[i * n..(i + 1) * n]) {
-                                    *gv += gc * d;
-                                }
+                                shift(&mut gr, i, d);
                             }
                             moved = moved.max(d.abs());
                         }
@@ -706,9 +715,7 @@ impl Deconvolver {
                         if d != 0.0 {
                             rp[i] += d;
                             r[i] += d;
-                            for (gv, &gc) in gr.iter_mut().zip(&g[i * n..(i + 1) * n]) {
-                                *gv += gc * d;
-                            }
+                            shift(&mut gr, i, d);
                             moved = moved.max(d.abs());
                         }
                     }
@@ -728,7 +735,7 @@ impl Deconvolver {
             // and the other then carries what the data support — two wall bumps in a
             // corner keep one −1 between them, where dropping every failing pair at
             // once lost both), until every active pair passes.
-            if !joint || self.cfg.state_rewards || self.cfg.joint_test <= 0.0 {
+            if !joint || !self.joint_on() {
                 break;
             }
             let now: Vec<usize> = (0..n).filter(|&i| rp[i] != 0.0).collect();
@@ -765,9 +772,7 @@ impl Deconvolver {
             let d = -rp[i];
             rp[i] = 0.0;
             r[i] += d;
-            for (gv, &gc) in gr.iter_mut().zip(&g[i * n..(i + 1) * n]) {
-                *gv += gc * d;
-            }
+            shift(&mut gr, i, d);
             excluded[i] = true;
         }
         // RSS = Σ r² − 2 Rᵀb + Rᵀ G R

@@ -300,6 +300,9 @@ mod tests {
         s.params.epsilon = f64::NAN;
         assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("--epsilon"));
         s.params.epsilon = 0.1;
+        s.beyond.joint_test = f64::NAN;
+        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("joint_test"));
+        s.beyond.joint_test = 1.0;
         s.max_delay = 1_000_000_000;
         let e = s.build(81, 4, 8 << 30).unwrap_err().to_string();
         assert!(e.contains("--max-delay") && e.contains("GiB"), "{e}");

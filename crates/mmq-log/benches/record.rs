@@ -262,18 +262,18 @@ fn bench_robot(c: &mut Criterion) {
     let ways =
         [("bare", Rec::Bare), ("recorded", Rec::To(&path, true)), ("recorded-inline", Rec::To(&path, false))];
     let mut times = vec![Vec::new(); ways.len()];
+    let mut bytes = vec![0; ways.len()];
     for _ in 0..ROUNDS {
-        for (ts, (_, how)) in times.iter_mut().zip(ways) {
+        for ((ts, b), (_, how)) in times.iter_mut().zip(&mut bytes).zip(ways) {
             let start = std::time::Instant::now();
-            robot(&world, how);
+            *b = robot(&world, how);
             ts.push(start.elapsed().as_secs_f64() / PRIMITIVES as f64 * 1e6);
         }
     }
     let best = |ts: &[f64]| ts.iter().copied().fold(f64::INFINITY, f64::min);
-    for ((name, how), ts) in ways.iter().zip(&times).skip(1) {
+    for (((name, _), ts), bytes) in ways.iter().zip(&times).zip(&bytes).skip(1) {
         let mut ratios: Vec<f64> = ts.iter().zip(&times[0]).map(|(t, b)| t / b - 1.0).collect();
         ratios.sort_by(f64::total_cmp);
-        let bytes = robot(&world, *how);
         println!(
             "robot/{name}: overhead {:+.1} % (median of {ROUNDS} paired rounds; range {:+.1} to {:+.1} %), \
              best {:.1} against bare {:.1} µs per primitive ({:+.1} %); {:.0} bytes per primitive",
@@ -283,7 +283,7 @@ fn bench_robot(c: &mut Criterion) {
             best(ts),
             best(&times[0]),
             100.0 * (best(ts) / best(&times[0]) - 1.0),
-            bytes as f64 / PRIMITIVES as f64
+            *bytes as f64 / PRIMITIVES as f64
         );
     }
     let mut g = c.benchmark_group("robot");
