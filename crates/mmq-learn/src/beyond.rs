@@ -33,6 +33,14 @@ pub struct BeyondParams {
     /// corridor cells as a penalty on every action there, and `deconv-model` never
     /// learned to stop bumping (docs/algorithms/beyond.md).
     pub state_rewards: bool,
+    /// Reward features per transition: the actions of a state that have only ever led to
+    /// one and the same next state share a reward feature besides their own (a pair
+    /// seen leading to two next states leaves its group). On by default: in the paper's
+    /// worlds it groups the goal's actions (all teleport to S) and the wall bumps of a
+    /// cell (all stay put), so the goal's reward is credited to the goal rather than to
+    /// the move into it one step earlier, which had made the delay estimate one step
+    /// late (docs/algorithms/beyond.md). `state_rewards` takes precedence.
+    pub successor_groups: bool,
     /// κ_J ≥ 0: after the lasso, a pair keeps its reward only if it is also significant
     /// jointly with the other rewarded pairs (more than κ_J times the lasso's threshold
     /// in joint standard errors); the least significant is dropped and the rest refitted.
@@ -75,6 +83,7 @@ impl Default for BeyondParams {
             lasso: 0.1,
             significance: 1.0,
             state_rewards: false,
+            successor_groups: true,
             joint_test: 1.0,
             pmf_weighted: true,
             pmf_significance: 3.0,
@@ -166,6 +175,7 @@ pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
         lasso: b.lasso,
         significance: b.significance,
         state_rewards: b.state_rewards,
+        successor_groups: b.successor_groups,
         joint_test: b.joint_test,
         pmf_weighted: b.pmf_weighted,
         pmf_significance: b.pmf_significance,

@@ -56,6 +56,8 @@ const ELIM_SWEEPS: usize = 10;
 pub const HISTORY_MAX: usize = 1 << 21;
 /// No pair yet.
 const UNSEEN: u32 = u32::MAX;
+/// A pair that led to more than one next state.
+const MIXED: u32 = u32::MAX - 1;
 
 /// Steps between two snapshots of the delay estimate (reported by `metrics`).
 pub const SNAPSHOT_EVERY: u64 = 10_000;
@@ -75,6 +77,9 @@ pub struct DeconvConfig {
     pub significance: f64,
     /// Reward features per state (shared by its actions) besides those per pair.
     pub state_rewards: bool,
+    /// Reward features per transition: the actions of a state that have only ever led to
+    /// one and the same next state share a feature (besides their own).
+    pub successor_groups: bool,
     /// κ_J: the joint test keeps a pair's reward only when it lies more than
     /// κ_J κ √(2 ln m) σ̂ joint standard errors from zero (0: off; pair features only).
     pub joint_test: f64,
@@ -309,8 +314,11 @@ pub struct Deconvolver {
     r: Vec<f64>,
     /// The pair part of R̂, by pair id.
     r_pair: Vec<f64>,
-    /// The state part of R̂ (shared by every action of a state), by state.
-    r_state: Vec<f64>,
+    /// The group part of R̂ (shared by the pairs of a group), by pair id.
+    r_group: Vec<f64>,
+    /// The one next state each pair id has led to (UNSEEN before its first transition,
+    /// MIXED once it led to two).
+    succ: Vec<u32>,
     /// |A|: pair id x belongs to state x / |A|.
     num_actions: usize,
     /// Compact index of each pair id (UNSEEN until first taken).
@@ -371,7 +379,8 @@ impl Deconvolver {
             pmf,
             r: vec![0.0; num_pairs],
             r_pair: vec![0.0; num_pairs],
-            r_state: vec![0.0; num_states],
+            r_group: vec![0.0; num_pairs],
+            succ: vec![UNSEEN; num_pairs],
             num_actions,
             index: vec![UNSEEN; num_pairs],
             pairs: Vec::new(),
@@ -484,6 +493,18 @@ impl Deconvolver {
         self.cap = new;
     }
 
+    /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
+    /// Refits when due; returns true when it did.
+    pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
+        let s2 = next_state as u32;
+        self.succ[x] = match self.succ[x] {
+            UNSEEN => s2,
+            v if v == s2 => s2,
+            _ => MIXED,
+        };
+        self.observe(x, reward)
+    }
+
     /// One step: pair `x` was taken and `reward` was delivered. Refits when due; returns
     /// true when it did.
     pub fn observe(&mut self, x: usize, reward: f64) -> bool {
@@ -546,20 +567,20 @@ impl Deconvolver {
             self.fit_pmf();
             let warm_objective = self.fit_rewards(sigma, false);
             let warm =
-                (self.pmf.clone(), self.r.clone(), self.r_pair.clone(), self.r_state.clone(), self.rss);
+                (self.pmf.clone(), self.r.clone(), self.r_pair.clone(), self.r_group.clone(), self.rss);
             let k_n = self.cfg.max_delay + 1;
             self.pmf = vec![1.0 / k_n as f64; k_n];
             self.r
                 .iter_mut()
                 .chain(self.r_pair.iter_mut())
-                .chain(self.r_state.iter_mut())
+                .chain(self.r_group.iter_mut())
                 .for_each(|x| *x = 0.0);
             self.fit_rewards(sigma, false);
             self.fit_pmf();
             if self.fit_rewards(sigma, false) < warm_objective {
                 self.cold_wins += 1;
             } else {
-                (self.pmf, self.r, self.r_pair, self.r_state, self.rss) = warm;
+                (self.pmf, self.r, self.r_pair, self.r_group, self.rss) = warm;
             }
         }
         if self.joint_on() {
@@ -571,6 +592,39 @@ impl Deconvolver {
     /// Whether the joint test runs (on, and pair features only).
     fn joint_on(&self) -> bool {
         self.cfg.joint_test > 0.0 && !self.cfg.state_rewards
+    }
+
+    /// The reward groups, as (a member's pair id, compact members): the pairs of each
+    /// state (`state_rewards`), or the pairs of a state that have only ever led to one
+    /// and the same next state (`successor_groups`; a pair seen leading to two next
+    /// states is a group of its own), or one group per state when neither is on (then
+    /// unused). Groups of one pair carry no feature of their own.
+    fn groups(&self) -> Vec<(usize, Vec<usize>)> {
+        let a_n = self.num_actions;
+        let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
+        let mut slot = std::collections::HashMap::new();
+        for (i, &x) in self.pairs.iter().enumerate() {
+            let st = x as usize / a_n;
+            let succ = self.succ[x as usize];
+            let key = if !self.cfg.successor_groups || self.cfg.state_rewards {
+                (st, 0)
+            } else if succ == UNSEEN || succ == MIXED {
+                (st, u64::from(u32::MAX) + 1 + i as u64)
+            } else {
+                (st, u64::from(succ))
+            };
+            let g_i = *slot.entry(key).or_insert_with(|| {
+                groups.push((x as usize, Vec::new()));
+                groups.len() - 1
+            });
+            groups[g_i].1.push(i);
+        }
+        groups
+    }
+
+    /// Whether pairs share group features (per state or per successor).
+    fn grouped(&self) -> bool {
+        self.cfg.state_rewards || self.cfg.successor_groups
     }
 
     /// R given p: lasso by coordinate descent on (G, b), warm-started. Returns the
@@ -641,24 +695,11 @@ impl Deconvolver {
         // With state features, a pair's own reward pays PAIR_PENALTY × the state's penalty:
         // of two explanations that fit equally (a goal state, or the only pair that enters
         // it), the coarser one wins.
-        let pair_factor = if self.cfg.state_rewards { PAIR_PENALTY } else { 1.0 };
-        // Groups: the compact pairs of each state (state features, when enabled).
-        let a_n = self.num_actions;
-        let mut groups: Vec<(usize, Vec<usize>)> = Vec::new();
-        {
-            let mut slot = std::collections::HashMap::new();
-            for (i, &x) in self.pairs.iter().enumerate() {
-                let st = x as usize / a_n;
-                let g_i = *slot.entry(st).or_insert_with(|| {
-                    groups.push((st, Vec::new()));
-                    groups.len() - 1
-                });
-                groups[g_i].1.push(i);
-            }
-        }
+        let pair_factor = if self.grouped() { PAIR_PENALTY } else { 1.0 };
+        let groups = self.groups();
         let mut rp: Vec<f64> = self.pairs.iter().map(|&x| self.r_pair[x as usize]).collect();
-        let mut rs: Vec<f64> = groups.iter().map(|(st, _)| self.r_state[*st]).collect();
-        if !self.cfg.state_rewards {
+        let mut rs: Vec<f64> = groups.iter().map(|(x0, _)| self.r_group[*x0]).collect();
+        if !self.grouped() {
             rs.iter_mut().for_each(|x| *x = 0.0);
         }
         // r = total R̂ per compact pair; gr = G r.
@@ -681,6 +722,7 @@ impl Deconvolver {
             }
         };
         // Pairs dropped by the joint test below; they stay at zero for this fit.
+        let grouped = self.grouped();
         let mut excluded = vec![false; n];
         // The joint test's active set (in the order of its inverse) and (G_S + ridge)⁻¹.
         let mut last: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;
@@ -692,7 +734,7 @@ impl Deconvolver {
                 let mut moved: f64 = 0.0;
                 for (gi, (_, members)) in groups.iter().enumerate() {
                     // The state feature: one value shared by every action of the state.
-                    if self.cfg.state_rewards && members.len() > 1 && gss[gi] > 0.0 {
+                    if grouped && members.len() > 1 && gss[gi] > 0.0 {
                         let z: f64 = members.iter().map(|&i| bvec[i] - gr[i]).sum::<f64>() + gss[gi] * rs[gi];
                         let d = soft(z, gss[gi], 1.0) - rs[gi];
                         if d != 0.0 {
@@ -787,8 +829,10 @@ impl Deconvolver {
             self.r_pair[x as usize] = rp[i];
             penalty += thr(g[i * n + i], pair_factor) * rp[i].abs() + 0.5 * ridge * rp[i] * rp[i];
         }
-        for (gi, (st, _)) in groups.iter().enumerate() {
-            self.r_state[*st] = rs[gi];
+        for (gi, (_, members)) in groups.iter().enumerate() {
+            for &i in members {
+                self.r_group[self.pairs[i] as usize] = rs[gi];
+            }
             penalty += thr(gss[gi], 1.0) * rs[gi].abs() + 0.5 * ridge * rs[gi] * rs[gi];
         }
         0.5 * rss + penalty
@@ -945,6 +989,7 @@ mod tests {
             lasso: 0.0,
             significance: 0.0,
             state_rewards: false,
+            successor_groups: false,
             joint_test: 0.0,
             pmf_weighted: false,
             pmf_significance: 0.0,
@@ -1001,6 +1046,101 @@ mod tests {
             assert!((d.reward(x) - want).abs() < 1e-2, "R̂({x}) = {} vs {want}", d.reward(x));
         }
         assert!((pmf_median(d.pmf()) - (2.5 + 0.4 / 0.6)).abs() < 0.01);
+    }
+
+    /// The groups of `successor_groups`: actions of a state that have only led to one
+    /// and the same next state share a group; a pair seen leading to two next states
+    /// leaves it; `state_rewards` groups whole states instead.
+    #[test]
+    fn successor_groups_follow_the_observed_transitions() {
+        let grouped = |d: &Deconvolver| -> Vec<Vec<u32>> {
+            let mut g: Vec<Vec<u32>> =
+                d.groups().into_iter().map(|(_, m)| m.iter().map(|&i| d.pairs[i]).collect()).collect();
+            g.iter_mut().for_each(|m| m.sort_unstable());
+            g.sort();
+            g
+        };
+        let mut c = cfg(3, None);
+        c.successor_groups = true;
+        // 3 states × 3 actions, pair id s·3 + a.
+        let mut d = Deconvolver::new(c.clone(), 3, 3);
+        d.observe_transition(0, 1, 0.0); // (0, 0) → 1
+        d.observe_transition(1, 1, 0.0); // (0, 1) → 1
+        d.observe_transition(2, 0, 0.0); // (0, 2) → 0
+        d.observe_transition(3, 1, 0.0); // (1, 0) → 1: other state, same successor
+        assert_eq!(grouped(&d), vec![vec![0, 1], vec![2], vec![3]]);
+        d.observe_transition(1, 1, 0.0); // again the same: still grouped
+        assert_eq!(grouped(&d), vec![vec![0, 1], vec![2], vec![3]]);
+        d.observe_transition(0, 2, 0.0); // (0, 0) also led to 2: on its own now
+        assert_eq!(grouped(&d), vec![vec![0], vec![1], vec![2], vec![3]]);
+        // State features take precedence: every action of a state in one group.
+        c.state_rewards = true;
+        let mut d = Deconvolver::new(c, 3, 3);
+        for (x, s2) in [(0, 1), (1, 1), (2, 0), (3, 1)] {
+            d.observe_transition(x, s2, 0.0);
+        }
+        assert_eq!(grouped(&d), vec![vec![0, 1, 2], vec![3]]);
+    }
+
+    /// The aliasing of the paper's goal: +10 for either action in G (2), and G is only
+    /// entered by (1, 0), so "(G, ·) rewarded at delay d" and "(1, 0) rewarded at delay
+    /// d + 1" predict the same deliveries. Pair features alone prefer the entering move:
+    /// one pair with all the visits clears the significance threshold (which grows as the
+    /// square root of the visits) more cheaply than G's two pairs that share them, and the
+    /// delay comes out one step late. With successor groups G's actions (both teleport to
+    /// 0) share one feature, cheaper than a pair's own, and the fit credits G at the true
+    /// delay. Delays uniform on {1, 2, 3}, rewards delivered as sampled.
+    #[test]
+    fn successor_groups_resolve_the_goal_aliasing() {
+        let k = 6;
+        // States 0 (start), 1, 2 (goal); actions 0 (forward), 1 (back to 0).
+        let step = |s: usize, a: usize| match (s, a) {
+            (2, _) => 0,
+            (s, 0) => s + 1,
+            _ => 0,
+        };
+        let fit = |groups: bool| {
+            let mut c = cfg(k, None);
+            c.successor_groups = groups;
+            (c.lasso, c.significance, c.reward_prior, c.refit_every) = (0.1, 1.0, 1.0, 1000);
+            let mut d = Deconvolver::new(c, 3, 2);
+            let mut rng = rng_from_seed(11);
+            let (mut s, mut pending) = (0, vec![0.0; 40_000 + 8]);
+            for t in 0..40_000 {
+                let a = usize::from(rng.random_bool(0.3));
+                if s == 2 {
+                    pending[t + rng.random_range(1..=3)] += 10.0;
+                }
+                let s2 = step(s, a);
+                d.observe_transition(s * 2 + a, s2, pending[t]);
+                s = s2;
+            }
+            d.refit();
+            d
+        };
+        let mut d = fit(true);
+        assert!((pmf_mean(d.pmf()) - 2.0).abs() < 0.1, "p̂ = {:?}", d.pmf());
+        for a in 0..2 {
+            assert!((d.reward(2 * 2 + a) - 10.0).abs() < 0.5, "R̂(G, {a}) = {}", d.reward(4 + a));
+        }
+        assert!(d.reward(2).abs() < 0.5, "R̂ of the entering move (1, 0) = {}", d.reward(2));
+        // The penalised objective (D2) of the two explanations, R refitted for each pmf:
+        // with the groups the true delay is the cheaper, without them the late one.
+        let (truth, late) = (
+            vec![0.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0, 0.0],
+            vec![0.0, 0.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0, 0.0, 0.0],
+        );
+        let objective = |d: &mut Deconvolver, p: &[f64]| {
+            d.pmf = p.to_vec();
+            let sigma = (d.rss.unwrap() / d.t as f64).sqrt();
+            d.fit_rewards(sigma, false)
+        };
+        let (o_truth, o_late) = (objective(&mut d, &truth), objective(&mut d, &late));
+        assert!(o_truth < o_late, "with groups: {o_truth} vs {o_late}");
+        let mut d = fit(false);
+        let (o_truth, o_late) = (objective(&mut d, &truth), objective(&mut d, &late));
+        assert!(o_late < o_truth, "pair features only: {o_late} vs {o_truth}");
+        assert!((d.reward(2) - 10.0).abs() < 0.5, "R̂ of the entering move (1, 0) = {}", d.reward(2));
     }
 
     /// The joint test's statistic on a 2 × 2 active set: G_S + ridge = [[4.1, 3.9],

@@ -102,7 +102,7 @@ impl Learner for DeconvModel {
 
     fn observe(&mut self, e: &Experience<'_>) {
         let i = self.q.index(e.state, e.action);
-        self.deconv.observe(i, e.reward);
+        self.deconv.observe_transition(i, e.next_state, e.reward);
         self.tries[i] += 1;
         let s2 = e.next_state as u32;
         match self.next[i].iter_mut().find(|x| x.0 == s2) {

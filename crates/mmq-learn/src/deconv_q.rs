@@ -83,7 +83,7 @@ impl Learner for DeconvQ {
     }
 
     fn observe(&mut self, e: &Experience<'_>) {
-        self.deconv.observe(self.q.index(e.state, e.action), e.reward);
+        self.deconv.observe_transition(self.q.index(e.state, e.action), e.next_state, e.reward);
         self.learn(e.state, e.action, e.next_state);
         if self.replay_lag > 0 {
             let n = self.history.len();
@@ -135,6 +135,7 @@ pub(crate) mod tests {
             lasso: 0.0,
             significance: 0.0,
             state_rewards: false,
+            successor_groups: false,
             joint_test: 0.0,
             pmf_weighted: false,
             pmf_significance: 0.0,
