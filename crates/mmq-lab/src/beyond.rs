@@ -26,9 +26,10 @@ use crate::paper::Group;
 use crate::sweep::csv_field;
 
 /// Every learner of the study, in report order.
-pub const LEARNERS: [LearnerKind; 7] = [
+pub const LEARNERS: [LearnerKind; 8] = [
     LearnerKind::Q,
     LearnerKind::Mmq,
+    LearnerKind::MmqKernel,
     LearnerKind::QLambda,
     LearnerKind::SarsaLambda,
     LearnerKind::DeconvQ,
@@ -461,7 +462,8 @@ mod tests {
     fn every_setting_builds_a_valid_config() {
         let o = BeyondOptions::new(true);
         let all = settings();
-        assert_eq!(all.len(), 2 * (4 * 3 + 3 * 2) * 7 + 4 * 2 * 2);
+        assert_eq!(all.len(), 2 * (4 * 3 + 3 * 2) * LEARNERS.len() + 4 * 2 * 2);
+        assert_eq!(LEARNERS.len(), 8);
         for s in &all {
             let c = config(&o, s);
             c.validate().unwrap();

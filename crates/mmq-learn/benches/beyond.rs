@@ -5,7 +5,7 @@
 //!
 //! `cargo bench -p mmq-learn --bench beyond`
 //!
-//! - `beyond-9x9-poisson13/{q,q-lambda,sarsa-lambda,oracle,deconv-q,deconv-model}`:
+//! - `beyond-9x9-poisson13/{q,mmq-kernel,q-lambda,sarsa-lambda,oracle,deconv-q,deconv-model}`:
 //!   each learner as the runner builds it from the default [`LearnerSpec`]; `q` is the
 //!   reference. The oracle's channel keeps the ground-truth ledger it reads.
 //! - `.../deconv-q-told`, `.../deconv-model-told`: told the true pmf (no pmf estimate).
@@ -66,6 +66,7 @@ fn bench(c: &mut Criterion) {
     };
     for kind in [
         LearnerKind::Q,
+        LearnerKind::MmqKernel,
         LearnerKind::QLambda,
         LearnerKind::SarsaLambda,
         LearnerKind::Oracle,

@@ -51,9 +51,11 @@ pub struct BeyondParams {
     /// Refine the delay pmf by reweighted least squares on the stored history (each step
     /// weighted by the inverse variance of its delivery); false: plain least squares.
     pub pmf_weighted: bool,
-    /// κ_p ≥ 0, in the reweighted fit: a delay keeps its estimated probability only with more than κ_p
-    /// standard errors of evidence (0: plain least squares, whose non-negativity turns
-    /// noise into spurious mass at every delay). Default 3 (was 2; see `pmf_prior`).
+    /// κ_p ≥ 0, in the reweighted fit: a delay keeps its estimated probability only with
+    /// more than κ_p standard errors of evidence (0: plain least squares, whose
+    /// non-negativity turns noise into spurious mass at every delay). Default 1 (2, then
+    /// 3, before the successor groups removed the one-step shift that a larger κ_p had
+    /// partly compensated; 1 measured best for a flat delay: docs/algorithms/beyond.md).
     pub pmf_significance: f64,
     /// ν ≥ 0: pull of the delay-pmf fit towards the uniform pmf, worth ν visits of the
     /// largest reward; it fades as rewards come in, so that early fits stay broad.
@@ -69,6 +71,13 @@ pub struct BeyondParams {
     /// `deconv-q`: each transition is learned again this many steps later, when R̂ has
     /// heard of its reward (0: learned once, at once).
     pub replay_lag: usize,
+    /// `mmq-kernel`: width h of the Gaussian kernel around the leading model, in steps of
+    /// λ̂ (> 0; `inf` gives every model full credit, as MMQ). Default 10, the best of
+    /// {1, 3, 5, 10, 20, 50, ∞} on 9×9 at Poisson 13 (docs/algorithms/mmq-kernel.md).
+    pub kernel_width: f64,
+    /// `mmq-kernel`: where the target's max looks: `all` models (the paper), the updated
+    /// model's `own` row, or the `leader`'s.
+    pub bootstrap: crate::mmq_kernel::Bootstrap,
     /// Tells the deconvolving learners the true delay distribution (a `--delay` spec such
     /// as `poisson:13`) instead of letting them estimate it: an ablation that measures
     /// what the estimate costs. `None` (the default) = estimate it.
@@ -86,11 +95,13 @@ impl Default for BeyondParams {
             successor_groups: true,
             joint_test: 1.0,
             pmf_weighted: true,
-            pmf_significance: 3.0,
+            pmf_significance: 1.0,
             pmf_prior: 5.0,
             refit_every: 250,
             optimism_visits: 10,
             replay_lag: 50,
+            kernel_width: 10.0,
+            bootstrap: crate::mmq_kernel::Bootstrap::All,
             told_delay: None,
         }
     }
@@ -127,11 +138,18 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
         return bad(
             "pmf_significance",
             b.pmf_significance.to_string(),
-            "use a number of standard errors ≥ 0, e.g. 3",
+            "use a number of standard errors ≥ 0, e.g. 1",
         );
     }
     if !(b.pmf_prior.is_finite() && b.pmf_prior >= 0.0) {
         return bad("pmf_prior", b.pmf_prior.to_string(), "use a prior weight ≥ 0 in visits, e.g. 5");
+    }
+    if b.kernel_width.is_nan() || b.kernel_width <= 0.0 {
+        return bad(
+            "kernel_width",
+            b.kernel_width.to_string(),
+            "use a kernel width > 0 in steps of the delay estimate, e.g. 10 (inf: no kernel)",
+        );
     }
     if b.refit_every == 0 {
         return bad("refit_every", "0".into(), "use at least 1 step between refits, e.g. 250");

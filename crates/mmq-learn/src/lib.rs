@@ -6,6 +6,7 @@
 //! | `q` | [`qlearning`] | eq. (2) |
 //! | `fixed` | [`fixed_delay`] | eq. (4) |
 //! | `mmq` | [`mmq`] (fast) / [`mmq_reference`] (plain transcription) | Algorithm 1, eqs. (5)–(7) |
+//! | `mmq-kernel` | [`mmq_kernel`] | Algorithm 1 with kernel credit around the leading model (the paper's future work) and other bootstraps |
 //! | `q-lambda` | [`q_lambda`] | Watkins's Q(λ) (beyond the paper, issue 8) |
 //! | `sarsa-lambda` | [`sarsa_lambda`] | SARSA(λ) (beyond the paper) |
 //! | `oracle` | [`oracle`] | true credit from the channel's ledger: an upper bound, no real agent |
@@ -21,6 +22,7 @@ pub mod deconv_model;
 pub mod deconv_q;
 pub mod fixed_delay;
 pub mod mmq;
+pub mod mmq_kernel;
 pub mod mmq_reference;
 pub mod oracle;
 pub mod policy;

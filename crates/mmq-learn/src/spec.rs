@@ -48,6 +48,8 @@ pub enum LearnerKind {
     Mmq,
     /// Algorithm 1 as a plain loop (the specification; slow).
     MmqReference,
+    /// MMQ with kernel credit around the leading model.
+    MmqKernel,
     /// Watkins's Q(λ) with replacing traces.
     QLambda,
     /// SARSA(λ) with replacing traces.
@@ -78,6 +80,11 @@ pub fn catalogue() -> Vec<(LearnerKind, &'static str, &'static str)> {
             LearnerKind::MmqReference,
             "mmq-reference",
             "Algorithm 1 as a plain loop, the specification of mmq (slow)",
+        ),
+        (
+            LearnerKind::MmqKernel,
+            "mmq-kernel",
+            "MMQ with credit weighted by a kernel around the leading model (the paper's future work); bootstrap from all models, its own, or the leader's",
         ),
         (
             LearnerKind::QLambda,
@@ -216,7 +223,9 @@ impl LearnerSpec {
         let entries = match self.kind {
             LearnerKind::Q => sa,
             LearnerKind::Fixed => sa + self.lambda_hat as u128,
-            LearnerKind::Mmq | LearnerKind::MmqReference => sa * (self.max_delay as u128 + 1),
+            LearnerKind::Mmq | LearnerKind::MmqReference | LearnerKind::MmqKernel => {
+                sa * (self.max_delay as u128 + 1)
+            }
             LearnerKind::QLambda | LearnerKind::SarsaLambda | LearnerKind::Oracle => sa,
             // Q, R̂ and the lag statistics of every pair (worst case: all pairs visited).
             LearnerKind::DeconvQ | LearnerKind::DeconvModel => {
@@ -252,6 +261,14 @@ impl LearnerSpec {
             LearnerKind::MmqReference => {
                 Box::new(MmqReference::new(p, self.max_delay, num_states, num_actions))
             }
+            LearnerKind::MmqKernel => Box::new(crate::mmq_kernel::KernelMmq::new(
+                p,
+                self.max_delay,
+                self.beyond.kernel_width,
+                self.beyond.bootstrap,
+                num_states,
+                num_actions,
+            )),
             LearnerKind::QLambda => {
                 Box::new(QLambda::new(p, self.beyond.trace_decay, num_states, num_actions))
             }
