@@ -62,6 +62,10 @@ pub struct BeyondParams {
     /// Default 5 (was 50: where the data hardly tell delays apart, the pull towards the
     /// uniform pmf on 0..=K put mass at long delays and the median came out high).
     pub pmf_prior: f64,
+    /// ρ ≥ 0: roughness penalty of the delay-pmf fit, ½ ρ max_x R̂(x)² Σ_k (p(k+1) − p(k))²,
+    /// in visits of the largest reward (0: off). A smooth pmf resists the aliasing of
+    /// delays k and k + P by a regular goal period P.
+    pub pmf_smoothness: f64,
     /// Steps between two refits of R̂ and the delay pmf early on (≥ 1); later refits
     /// come every max(refit_every, t/8) steps.
     pub refit_every: u64,
@@ -97,6 +101,7 @@ impl Default for BeyondParams {
             pmf_weighted: true,
             pmf_significance: 1.0,
             pmf_prior: 5.0,
+            pmf_smoothness: 0.0,
             refit_every: 250,
             optimism_visits: 10,
             replay_lag: 50,
@@ -143,6 +148,13 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
     }
     if !(b.pmf_prior.is_finite() && b.pmf_prior >= 0.0) {
         return bad("pmf_prior", b.pmf_prior.to_string(), "use a prior weight ≥ 0 in visits, e.g. 5");
+    }
+    if !(b.pmf_smoothness.is_finite() && b.pmf_smoothness >= 0.0) {
+        return bad(
+            "pmf_smoothness",
+            b.pmf_smoothness.to_string(),
+            "use a penalty ≥ 0 in visits, e.g. 10 (0: off)",
+        );
     }
     if b.kernel_width.is_nan() || b.kernel_width <= 0.0 {
         return bad(
@@ -198,6 +210,7 @@ pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
         pmf_weighted: b.pmf_weighted,
         pmf_significance: b.pmf_significance,
         pmf_prior: b.pmf_prior,
+        pmf_smoothness: b.pmf_smoothness,
         refit_every: b.refit_every,
         told,
     })

@@ -94,6 +94,9 @@ pub struct DeconvConfig {
     /// in visits of the largest reward: it dominates while few rewards were seen and
     /// fades as data come in, so early fits stay broad instead of locking onto a lag.
     pub pmf_prior: f64,
+    /// ρ: roughness penalty ½ ρ max_x R̂(x)² Σ_k (p(k+1) − p(k))² of the pmf fit, in
+    /// visits of the largest reward (0: off).
+    pub pmf_smoothness: f64,
     /// Steps between two refits early on; later refits come every max(this, t/8) steps.
     pub refit_every: u64,
     /// A known pmf over 0..=K (then p̂ is not estimated).
@@ -249,6 +252,17 @@ pub fn project_capped_simplex(v: &mut [f64]) {
         v.iter_mut().for_each(|x| *x = x.max(0.0));
     } else {
         project_simplex(v);
+    }
+}
+
+/// Adds ρ DᵀD to the `k_n`×`k_n` matrix `m`, D the first-difference operator: the
+/// Hessian of ½ ρ Σ_k (p(k+1) − p(k))².
+pub fn add_roughness(m: &mut [f64], k_n: usize, rho: f64) {
+    for k in 0..k_n.saturating_sub(1) {
+        m[k * k_n + k] += rho;
+        m[(k + 1) * k_n + k + 1] += rho;
+        m[k * k_n + k + 1] -= rho;
+        m[(k + 1) * k_n + k] -= rho;
     }
 }
 
@@ -884,18 +898,25 @@ impl Deconvolver {
         }
         let rmax = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         let nu = self.cfg.pmf_prior * rmax * rmax;
+        let rho = self.cfg.pmf_smoothness * rmax * rmax;
+        let trace_u: f64 = (0..k_n).map(|i| amat[i * k_n + i]).sum();
+        if rho > 0.0 {
+            add_roughness(&mut amat, k_n, rho);
+        }
         let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &self.pmf) else { return };
         if self.cfg.pmf_weighted {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
-            let trace_u: f64 = (0..k_n).map(|i| amat[i * k_n + i]).sum();
             for _ in 0..WEIGHTED_PASSES {
-                let (aw, cw) = self.weighted_stats(&r, &p, rmax);
+                let (mut aw, cw) = self.weighted_stats(&r, &p, rmax);
                 let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
                 if trace_w <= 0.0 {
                     break;
                 }
                 let nu_w = nu * trace_w / trace_u.max(f64::MIN_POSITIVE);
+                if rho > 0.0 {
+                    add_roughness(&mut aw, k_n, rho * trace_w / trace_u.max(f64::MIN_POSITIVE));
+                }
                 let lam: Vec<f64> =
                     (0..k_n).map(|i| self.cfg.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
                 match solve_pmf(&aw, &cw, nu_w, &lam, &p) {
@@ -994,6 +1015,7 @@ mod tests {
             pmf_weighted: false,
             pmf_significance: 0.0,
             pmf_prior: 0.0,
+            pmf_smoothness: 0.0,
             refit_every: 1_000_000,
             told,
         }
@@ -1046,6 +1068,17 @@ mod tests {
             assert!((d.reward(x) - want).abs() < 1e-2, "R̂({x}) = {} vs {want}", d.reward(x));
         }
         assert!((pmf_median(d.pmf()) - (2.5 + 0.4 / 0.6)).abs() < 0.01);
+    }
+
+    /// ρ DᵀD for three lags and ρ = 2: the Hessian of ρ/2 [(p1 − p0)² + (p2 − p1)²].
+    #[test]
+    fn roughness_by_hand() {
+        let mut m = vec![1.0; 9];
+        add_roughness(&mut m, 3, 2.0);
+        assert_eq!(m, vec![3.0, -1.0, 1.0, -1.0, 5.0, -1.0, 1.0, -1.0, 3.0]);
+        let mut one = vec![0.0];
+        add_roughness(&mut one, 1, 2.0);
+        assert_eq!(one, vec![0.0]);
     }
 
     /// The groups of `successor_groups`: actions of a state that have only led to one

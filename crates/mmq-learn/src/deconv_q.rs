@@ -140,6 +140,7 @@ pub(crate) mod tests {
             pmf_weighted: false,
             pmf_significance: 0.0,
             pmf_prior: 0.0,
+            pmf_smoothness: 0.0,
             refit_every: 4,
             told: Some(vec![0.5, 0.5]),
         }
