@@ -1,0 +1,120 @@
+#!/usr/bin/env python3
+"""How well can a delay pmf be estimated from a settled agent's own trajectory?
+
+A diagnostic for docs/algorithms/beyond.md ("Delay estimate"), independent of the Rust
+code: the paper's 9x9 world (G top-left, S bottom-right, +10 for any action in G then
+back to S, -1 for a wall bump), walked by a *fixed* shortest path (up, then left) with
+epsilon-greedy exploration, which is what a converged `deconv-model` does. Rewards go
+through a delay channel; the delay pmf over 0..=50 is then fitted by non-negative least
+squares **with the true rewards given** (an oracle for everything but the delay), and
+the median of the fit is compared with the truth after 50,000 steps.
+
+Usage:  python tools/delay_alias_sim.py [--seeds 10] [--steps 50000] [--epsilon 0.05]
+                                        [--delay uniform|poisson13|mixture]
+Needs numpy only (tools/.venv from .ci/run has it).
+"""
+
+import argparse
+
+import numpy as np
+
+K = 50
+
+
+def nnls(a, b, iters=500):
+    """min ||A x - b||, x >= 0 (Lawson-Hanson active set)."""
+    n = a.shape[1]
+    x = np.zeros(n)
+    passive = np.zeros(n, dtype=bool)
+    ata, atb = a.T @ a, a.T @ b
+    for _ in range(iters):
+        w = atb - ata @ x
+        if passive.all() or w[~passive].max() <= 1e-10 * max(1.0, abs(atb).max()):
+            break
+        j = np.where(~passive)[0][np.argmax(w[~passive])]
+        passive[j] = True
+        while True:
+            z = np.zeros(n)
+            idx = np.where(passive)[0]
+            z[idx] = np.linalg.solve(ata[np.ix_(idx, idx)], atb[idx])
+            if (z[idx] > 0).all():
+                x = z
+                break
+            neg = idx[z[idx] <= 0]
+            alpha = np.min(x[neg] / (x[neg] - z[neg]))
+            x = x + alpha * (z - x)
+            passive &= x > 1e-12
+    return x
+
+
+def median(p):
+    """Median of a pmf on 0, 1, ..., interpolated as in deconv.rs (pmf_median)."""
+    p = p / p.sum()
+    acc = 0.0
+    for k, v in enumerate(p):
+        if v > 0 and acc + v >= 0.5:
+            return k - 0.5 + (0.5 - acc) / v
+        acc += v
+    return len(p) - 0.5
+
+
+def trajectory(rng, steps, epsilon):
+    """Rewards earned per step on the paper's 9x9 world by a fixed shortest path."""
+    r, c = 8, 8
+    y = np.zeros(steps)
+    for t in range(steps):
+        if (r, c) == (0, 0):
+            y[t] = 10.0
+            r, c = 8, 8
+            continue
+        a = rng.integers(4) if rng.random() < epsilon else (0 if r > 0 else 2)
+        dr, dc = [(-1, 0), (1, 0), (0, -1), (0, 1)][a]
+        if 0 <= r + dr < 9 and 0 <= c + dc < 9:
+            r, c = r + dr, c + dc
+        else:
+            y[t] = -1.0
+    return y
+
+
+def delays(rng, kind, n):
+    if kind == "uniform":
+        return rng.integers(0, 27, size=n), 13.0
+    if kind == "poisson13":
+        return rng.poisson(13, size=n), 12.836
+    lo = rng.random(n) < 0.5
+    return np.where(lo, rng.poisson(3, size=n), rng.poisson(25, size=n)), None
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--steps", type=int, default=50_000)
+    ap.add_argument("--epsilon", type=float, default=0.05)
+    ap.add_argument("--delay", choices=["uniform", "poisson13", "mixture"], default="uniform")
+    args = ap.parse_args()
+    errors = []
+    for seed in range(args.seeds):
+        rng = np.random.default_rng(seed)
+        y = trajectory(rng, args.steps, args.epsilon)
+        d, truth = delays(rng, args.delay, args.steps)
+        delivered = np.zeros(args.steps + K + 1)
+        np.add.at(delivered, np.arange(args.steps) + np.minimum(d, K), y)
+        delivered = delivered[: args.steps]
+        x = np.zeros((args.steps, K + 1))
+        for k in range(K + 1):
+            x[k:, k] = y[: args.steps - k]
+        p = nnls(x, delivered)
+        p /= p.sum()
+        tail = p[27:].sum()
+        if truth is None:
+            print(f"seed {seed}: mass below 12 steps {p[:12].sum():.2f} (truth 0.50), beyond 26: {tail:.2f}")
+        else:
+            errors.append(median(p) - truth)
+            print(f"seed {seed}: median {median(p):.2f} (truth {truth:.2f}), mass beyond 26: {tail:.2f}")
+    if errors:
+        e = np.array(errors)
+        print(f"median error: mean {e.mean():+.2f}, worst {np.abs(e).max():.2f} over {len(e)} seeds")
+
+
+if __name__ == "__main__":
+    main()
