@@ -37,6 +37,13 @@
 //! up to edge terms of the last K steps. Memory is (K + 1)·X² counts for the X pairs
 //! visited so far. p̂ starts uniform on 0..=K; when the learner is told the pmf, only R
 //! is fitted.
+//!
+//! R(x) is a sum of features: one per pair, and one per *group* of pairs that share a
+//! reward — with `successor_groups`, the actions of a state that have only ever led to
+//! one and the same next state (the goal's actions, which all teleport; a cell's wall
+//! bumps, which all stay put). A pair's own feature pays 1.25× a group's lasso penalty,
+//! so of two explanations that fit alike the coarser wins; that is what credits the
+//! goal's reward to the goal rather than to the move into it one step earlier.
 
 use mmq_core::DelayDist;
 
@@ -706,9 +713,9 @@ impl Deconvolver {
                 0.0
             }
         };
-        // With state features, a pair's own reward pays PAIR_PENALTY × the state's penalty:
-        // of two explanations that fit equally (a goal state, or the only pair that enters
-        // it), the coarser one wins.
+        // With group features, a pair's own reward pays PAIR_PENALTY × a group's penalty:
+        // of two explanations that fit equally (the goal's actions, or the only pair that
+        // enters the goal), the coarser one wins.
         let pair_factor = if self.grouped() { PAIR_PENALTY } else { 1.0 };
         let groups = self.groups();
         let mut rp: Vec<f64> = self.pairs.iter().map(|&x| self.r_pair[x as usize]).collect();
@@ -747,7 +754,7 @@ impl Deconvolver {
             for _ in 0..sweeps {
                 let mut moved: f64 = 0.0;
                 for (gi, (_, members)) in groups.iter().enumerate() {
-                    // The state feature: one value shared by every action of the state.
+                    // The group feature: one value shared by the group's pairs.
                     if grouped && members.len() > 1 && gss[gi] > 0.0 {
                         let z: f64 = members.iter().map(|&i| bvec[i] - gr[i]).sum::<f64>() + gss[gi] * rs[gi];
                         let d = soft(z, gss[gi], 1.0) - rs[gi];
