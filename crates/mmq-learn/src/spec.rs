@@ -320,6 +320,12 @@ mod tests {
         s.beyond.joint_test = f64::NAN;
         assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("joint_test"));
         s.beyond.joint_test = 1.0;
+        s.beyond.kernel_width = 0.0;
+        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("kernel_width"));
+        s.beyond.kernel_width = f64::INFINITY;
+        s.beyond.pmf_smoothness = -1.0;
+        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("pmf_smoothness"));
+        s.beyond.pmf_smoothness = 0.0;
         s.max_delay = 1_000_000_000;
         let e = s.build(81, 4, 8 << 30).unwrap_err().to_string();
         assert!(e.contains("--max-delay") && e.contains("GiB"), "{e}");
