@@ -10,7 +10,9 @@ squares **with the true rewards given** (an oracle for everything but the delay)
 the median of the fit is compared with the truth after 50,000 steps.
 
 Usage:  python tools/delay_alias_sim.py [--seeds 10] [--steps 50000] [--epsilon 0.05]
-                                        [--delay uniform|poisson13|mixture]
+                                        [--delay uniform|poisson13|mixture] [--bic]
+
+--bic also chooses the pmf's support 0..=m (m = 5..=50) by BIC and reports that fit.
 Needs numpy only (tools/.venv from .ci/run has it).
 """
 
@@ -91,6 +93,7 @@ def main():
     ap.add_argument("--steps", type=int, default=50_000)
     ap.add_argument("--epsilon", type=float, default=0.05)
     ap.add_argument("--delay", choices=["uniform", "poisson13", "mixture"], default="uniform")
+    ap.add_argument("--bic", action="store_true", help="also fit with the support chosen by BIC")
     args = ap.parse_args()
     errors = []
     for seed in range(args.seeds):
@@ -106,6 +109,17 @@ def main():
         p = nnls(x, delivered)
         p /= p.sum()
         tail = p[27:].sum()
+        if args.bic:
+            n = args.steps
+            best = None
+            for m in range(5, K + 1):
+                q = nnls(x[:, : m + 1], delivered)
+                rss = float(np.sum((x[:, : m + 1] @ q - delivered) ** 2))
+                bic = n * np.log(rss / n) + (m + 1) * np.log(n)
+                if best is None or bic < best[0]:
+                    best = (bic, m, q)
+            q = best[2] / best[2].sum()
+            print(f"seed {seed}: BIC support 0..={best[1]}, median {median(q):.2f}, mass below 12 steps {q[:12].sum():.2f}")
         if truth is None:
             print(f"seed {seed}: mass below 12 steps {p[:12].sum():.2f} (truth 0.50), beyond 26: {tail:.2f}")
         else:
