@@ -119,42 +119,20 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
     if !(0.0..=1.0).contains(&b.trace_decay) {
         return bad("trace_decay", b.trace_decay.to_string(), "use a trace decay in [0, 1], e.g. 0.9");
     }
-    if !(b.reward_prior.is_finite() && b.reward_prior >= 0.0) {
-        return bad("reward_prior", b.reward_prior.to_string(), "use a prior strength ≥ 0, e.g. 1");
-    }
-    if !(b.lasso.is_finite() && b.lasso >= 0.0) {
-        return bad("lasso", b.lasso.to_string(), "use an L1 penalty ≥ 0 in reward units, e.g. 0.1");
-    }
-    if !(b.significance.is_finite() && b.significance >= 0.0) {
-        return bad(
-            "significance",
-            b.significance.to_string(),
-            "use a multiple of the universal threshold ≥ 0, e.g. 1",
-        );
-    }
-    if !(b.joint_test.is_finite() && b.joint_test >= 0.0) {
-        return bad(
-            "joint_test",
-            b.joint_test.to_string(),
-            "use a multiple of the lasso's threshold ≥ 0, e.g. 1 (0: off)",
-        );
-    }
-    if !(b.pmf_significance.is_finite() && b.pmf_significance >= 0.0) {
-        return bad(
-            "pmf_significance",
-            b.pmf_significance.to_string(),
-            "use a number of standard errors ≥ 0, e.g. 1",
-        );
-    }
-    if !(b.pmf_prior.is_finite() && b.pmf_prior >= 0.0) {
-        return bad("pmf_prior", b.pmf_prior.to_string(), "use a prior weight ≥ 0 in visits, e.g. 5");
-    }
-    if !(b.pmf_smoothness.is_finite() && b.pmf_smoothness >= 0.0) {
-        return bad(
-            "pmf_smoothness",
-            b.pmf_smoothness.to_string(),
-            "use a penalty ≥ 0 in visits, e.g. 10 (0: off)",
-        );
+    // Finite and ≥ 0, checked in this order (the first failing field is reported).
+    let non_negative: [(&'static str, f64, &'static str); 7] = [
+        ("reward_prior", b.reward_prior, "use a prior strength ≥ 0, e.g. 1"),
+        ("lasso", b.lasso, "use an L1 penalty ≥ 0 in reward units, e.g. 0.1"),
+        ("significance", b.significance, "use a multiple of the universal threshold ≥ 0, e.g. 1"),
+        ("joint_test", b.joint_test, "use a multiple of the lasso's threshold ≥ 0, e.g. 1 (0: off)"),
+        ("pmf_significance", b.pmf_significance, "use a number of standard errors ≥ 0, e.g. 1"),
+        ("pmf_prior", b.pmf_prior, "use a prior weight ≥ 0 in visits, e.g. 5"),
+        ("pmf_smoothness", b.pmf_smoothness, "use a penalty ≥ 0 in visits, e.g. 10 (0: off)"),
+    ];
+    for (field, value, accepted) in non_negative {
+        if !(value.is_finite() && value >= 0.0) {
+            return bad(field, value.to_string(), accepted);
+        }
     }
     if b.kernel_width.is_nan() || b.kernel_width <= 0.0 {
         return bad(

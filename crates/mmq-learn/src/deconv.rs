@@ -716,11 +716,12 @@ impl Deconvolver {
         // With group features, a pair's own reward pays PAIR_PENALTY × a group's penalty:
         // of two explanations that fit equally (the goal's actions, or the only pair that
         // enters the goal), the coarser one wins.
-        let pair_factor = if self.grouped() { PAIR_PENALTY } else { 1.0 };
+        let grouped = self.grouped();
+        let pair_factor = if grouped { PAIR_PENALTY } else { 1.0 };
         let groups = self.groups();
         let mut rp: Vec<f64> = self.pairs.iter().map(|&x| self.r_pair[x as usize]).collect();
         let mut rs: Vec<f64> = groups.iter().map(|(x0, _)| self.r_group[*x0]).collect();
-        if !self.grouped() {
+        if !grouped {
             rs.iter_mut().for_each(|x| *x = 0.0);
         }
         // r = total R̂ per compact pair; gr = G r.
@@ -743,7 +744,6 @@ impl Deconvolver {
             }
         };
         // Pairs dropped by the joint test below; they stay at zero for this fit.
-        let grouped = self.grouped();
         let mut excluded = vec![false; n];
         // The joint test's active set (in the order of its inverse) and (G_S + ridge)⁻¹.
         let mut last: Option<(Vec<usize>, nalgebra::DMatrix<f64>)> = None;

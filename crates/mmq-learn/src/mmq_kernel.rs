@@ -26,7 +26,8 @@
 use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
-use crate::policy::{argmax_random_tie, epsilon_greedy};
+use crate::mmq_reference::{act_on_block, best_model_values, q_table};
+use crate::policy::argmax_random_tie;
 use crate::spec::Params;
 use crate::{Decision, Experience, Learner, Table, max_of};
 
@@ -123,19 +124,11 @@ impl Learner for KernelMmq {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let block = self.block(s);
-        let a_n = self.num_actions;
-        let mut model = None;
-        let (action, explored) = epsilon_greedy(self.p.epsilon, a_n, rng, |r| {
-            let i = argmax_random_tie(block, r);
-            model = Some(i / a_n);
-            i % a_n
-        });
-        let model = if explored { None } else { model };
-        if let Some(m) = model {
+        let d = act_on_block(self.block(s), self.num_actions, self.p.epsilon, rng);
+        if let Some(m) = d.model {
             self.chosen[m] += 1;
         }
-        Decision { action, model, explored }
+        d
     }
 
     fn observe(&mut self, e: &Experience<'_>) {
@@ -168,21 +161,11 @@ impl Learner for KernelMmq {
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        let a_n = self.num_actions;
-        let block = self.block(s);
-        let best = (0..self.n)
-            .max_by(|&x, &y| {
-                max_of(&block[x * a_n..(x + 1) * a_n])
-                    .total_cmp(&max_of(&block[y * a_n..(y + 1) * a_n]))
-                    .then(y.cmp(&x))
-            })
-            .unwrap_or(0);
-        out.copy_from_slice(&block[best * a_n..(best + 1) * a_n]);
+        best_model_values(self.block(s), self.num_actions, out);
     }
 
     fn tables(&self) -> Vec<Table> {
-        let s = self.q.len() / (self.n * self.num_actions);
-        vec![Table { name: "q".into(), shape: vec![s, self.n, self.num_actions], data: self.q.clone() }]
+        vec![q_table(&self.q, self.n, self.num_actions)]
     }
 
     fn metrics(&self) -> Vec<(String, f64)> {

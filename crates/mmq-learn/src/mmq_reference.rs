@@ -62,15 +62,7 @@ impl Learner for MmqReference {
     }
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let block = self.block(s);
-        let a_n = self.num_actions;
-        let mut model = None;
-        let (action, explored) = epsilon_greedy(self.p.epsilon, a_n, rng, |r| {
-            let i = argmax_random_tie(block, r);
-            model = Some(i / a_n);
-            i % a_n
-        });
-        Decision { action, model: if explored { None } else { model }, explored }
+        act_on_block(self.block(s), self.num_actions, self.p.epsilon, rng)
     }
 
     fn observe(&mut self, e: &Experience<'_>) {
@@ -93,20 +85,41 @@ impl Learner for MmqReference {
     }
 
     fn action_values(&self, s: State, out: &mut [f64]) {
-        let a_n = self.num_actions;
-        let block = self.block(s);
-        let best = (0..self.n)
-            .max_by(|&x, &y| {
-                max_of(&block[x * a_n..(x + 1) * a_n])
-                    .total_cmp(&max_of(&block[y * a_n..(y + 1) * a_n]))
-                    .then(y.cmp(&x))
-            })
-            .unwrap_or(0);
-        out.copy_from_slice(&block[best * a_n..(best + 1) * a_n]);
+        best_model_values(self.block(s), self.num_actions, out);
     }
 
     fn tables(&self) -> Vec<Table> {
-        let s = self.q.len() / (self.n * self.num_actions);
-        vec![Table { name: "q".into(), shape: vec![s, self.n, self.num_actions], data: self.q.clone() }]
+        vec![q_table(&self.q, self.n, self.num_actions)]
     }
+}
+
+/// Eqs. (5)–(6) on a state's block Q(s, ·, ·) in [λ̂][a] order: ε-greedy on the joint
+/// argmax over models and actions, ties at random; the model acted on when greedy.
+pub(crate) fn act_on_block(block: &[f64], a_n: usize, epsilon: f64, rng: &mut Rng) -> Decision {
+    let mut model = None;
+    let (action, explored) = epsilon_greedy(epsilon, a_n, rng, |r| {
+        let i = argmax_random_tie(block, r);
+        model = Some(i / a_n);
+        i % a_n
+    });
+    Decision { action, model: if explored { None } else { model }, explored }
+}
+
+/// The action values of the best model of a state's block (the model whose best action
+/// is highest; ties to the smaller λ̂).
+pub(crate) fn best_model_values(block: &[f64], a_n: usize, out: &mut [f64]) {
+    let n = block.len() / a_n;
+    let best = (0..n)
+        .max_by(|&x, &y| {
+            max_of(&block[x * a_n..(x + 1) * a_n])
+                .total_cmp(&max_of(&block[y * a_n..(y + 1) * a_n]))
+                .then(y.cmp(&x))
+        })
+        .unwrap_or(0);
+    out.copy_from_slice(&block[best * a_n..(best + 1) * a_n]);
+}
+
+/// The [s][λ̂][a] table `q` for export.
+pub(crate) fn q_table(q: &[f64], n: usize, a_n: usize) -> Table {
+    Table { name: "q".into(), shape: vec![q.len() / (n * a_n), n, a_n], data: q.to_vec() }
 }
