@@ -10,9 +10,13 @@ squares **with the true rewards given** (an oracle for everything but the delay)
 the median of the fit is compared with the truth after 50,000 steps.
 
 Usage:  python tools/delay_alias_sim.py [--seeds 10] [--steps 50000] [--epsilon 0.05]
-                                        [--delay uniform|poisson13|mixture] [--bic]
+                                        [--delay uniform|poisson13|mixture] [--bic] [--split]
 
 --bic also chooses the pmf's support 0..=m (m = 5..=50) by BIC and reports that fit.
+--split also fits the +10 and the -1 deliveries as two separate series (what an agent
+could do if it knew which rewards a delivered sum is made of): by non-negative least
+squares on both, and by the Poisson maximum likelihood of the delivery counts (EM), and
+by the latter on the +10 deliveries alone.
 Needs numpy only (tools/.venv from .ci/run has it).
 """
 
@@ -60,6 +64,25 @@ def median(p):
     return len(p) - 0.5
 
 
+def lagged(y):
+    """Design matrix of lags 0..=K: row t holds y[t], y[t-1], ..., y[t-K]."""
+    x = np.zeros((len(y), K + 1))
+    for k in range(K + 1):
+        x[k:, k] = y[: len(y) - k]
+    return x
+
+
+def poisson_em(x, n, iters=3000):
+    """Maximum likelihood of p given counts n_t ~ Poisson(x_t . p) (EM from uniform)."""
+    keep = x.sum(1) > 0
+    x, n = x[keep], n[keep]
+    p = np.full(K + 1, 1.0 / (K + 1))
+    den = x.sum(0)
+    for _ in range(iters):
+        p = p * (x.T @ (n / np.maximum(x @ p, 1e-300))) / den
+    return p / p.sum()
+
+
 def trajectory(rng, steps, epsilon):
     """Rewards earned per step on the paper's 9x9 world by a fixed shortest path."""
     r, c = 8, 8
@@ -94,8 +117,9 @@ def main():
     ap.add_argument("--epsilon", type=float, default=0.05)
     ap.add_argument("--delay", choices=["uniform", "poisson13", "mixture"], default="uniform")
     ap.add_argument("--bic", action="store_true", help="also fit with the support chosen by BIC")
+    ap.add_argument("--split", action="store_true", help="also fit +10 and -1 deliveries apart")
     args = ap.parse_args()
-    errors = []
+    errors, split_errors = [], {"nnls": [], "em": [], "em, +10 alone": []}
     for seed in range(args.seeds):
         rng = np.random.default_rng(seed)
         y = trajectory(rng, args.steps, args.epsilon)
@@ -103,9 +127,24 @@ def main():
         delivered = np.zeros(args.steps + K + 1)
         np.add.at(delivered, np.arange(args.steps) + np.minimum(d, K), y)
         delivered = delivered[: args.steps]
-        x = np.zeros((args.steps, K + 1))
-        for k in range(K + 1):
-            x[k:, k] = y[: args.steps - k]
+        x = lagged(y)
+        if args.split:
+            xs, ns = [], []
+            for part in ((y > 0).astype(float), (y < 0).astype(float)):
+                arrived = np.zeros(args.steps + K + 1)
+                np.add.at(arrived, np.arange(args.steps) + np.minimum(d, K), part)
+                xs.append(lagged(part))
+                ns.append(arrived[: args.steps])
+            goal_only = poisson_em(xs[0], ns[0])
+            xs, ns = np.vstack(xs), np.concatenate(ns)
+            fits = {"nnls": nnls(xs, ns), "em": poisson_em(xs, ns), "em, +10 alone": goal_only}
+            for name, q in fits.items():
+                q = q / q.sum()
+                if truth is None:
+                    print(f"seed {seed}: split {name}: mass below 12 steps {q[:12].sum():.2f} (truth 0.50)")
+                else:
+                    split_errors[name].append(median(q) - truth)
+                    print(f"seed {seed}: split {name}: median {median(q):.2f} (truth {truth:.2f})")
         p = nnls(x, delivered)
         p /= p.sum()
         tail = p[27:].sum()
@@ -128,6 +167,10 @@ def main():
     if errors:
         e = np.array(errors)
         print(f"median error: mean {e.mean():+.2f}, worst {np.abs(e).max():.2f} over {len(e)} seeds")
+    for name, e in split_errors.items():
+        if e:
+            e = np.array(e)
+            print(f"split {name}: median error mean {e.mean():+.2f}, worst {np.abs(e).max():.2f} over {len(e)} seeds")
 
 
 if __name__ == "__main__":
