@@ -517,18 +517,38 @@ impl Deconvolver {
     /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
     /// Refits when due; returns true when it did.
     pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
-        let s2 = next_state as u32;
-        self.succ[x] = match self.succ[x] {
-            UNSEEN => s2,
-            v if v == s2 => s2,
-            _ => MIXED,
-        };
+        self.record_successor(x, next_state);
         self.observe(x, reward)
     }
 
     /// One step: pair `x` was taken and `reward` was delivered. Refits when due; returns
     /// true when it did.
     pub fn observe(&mut self, x: usize, reward: f64) -> bool {
+        self.record(x, reward);
+        let mut refitted = false;
+        if self.t >= self.next_refit {
+            self.refit();
+            self.next_refit = self.t + self.cfg.refit_every.max(self.t / 8);
+            refitted = true;
+        }
+        if self.t.is_multiple_of(SNAPSHOT_EVERY) {
+            self.push_snapshot();
+        }
+        refitted
+    }
+
+    /// Records the successor of pair `x` (for the successor groups).
+    pub(crate) fn record_successor(&mut self, x: usize, next_state: usize) {
+        let s2 = next_state as u32;
+        self.succ[x] = match self.succ[x] {
+            UNSEEN => s2,
+            v if v == s2 => s2,
+            _ => MIXED,
+        };
+    }
+
+    /// One step's statistics (no refit, no snapshot): pair `x` taken, `reward` delivered.
+    pub(crate) fn record(&mut self, x: usize, reward: f64) {
         let i = self.compact(x);
         let k_n = self.cfg.max_delay + 1;
         let cap = self.cap;
@@ -549,20 +569,11 @@ impl Deconvolver {
             self.b[k * cap + e] += reward;
         }
         self.t += 1;
-        let mut refitted = false;
-        if self.t >= self.next_refit {
-            self.refit();
-            self.next_refit = self.t + self.cfg.refit_every.max(self.t / 8);
-            refitted = true;
-        }
-        if self.t.is_multiple_of(SNAPSHOT_EVERY) {
-            self.snapshots.push(Snapshot {
-                t: self.t,
-                mean: pmf_mean(&self.pmf),
-                median: pmf_median(&self.pmf),
-            });
-        }
-        refitted
+    }
+
+    /// Appends a snapshot of the delay estimate at the current step.
+    pub(crate) fn push_snapshot(&mut self) {
+        self.snapshots.push(Snapshot { t: self.t, mean: pmf_mean(&self.pmf), median: pmf_median(&self.pmf) });
     }
 
     /// Compact index of the pair taken at step `u` (one of the last 2(K + 1)).
@@ -577,37 +588,53 @@ impl Deconvolver {
     /// and the fit with the lower penalised objective (D2) is kept: an alternation that
     /// locked onto a wrong delay early (or found no reward at all) gets out again.
     pub fn refit(&mut self) {
-        if self.pairs.is_empty() {
+        Self::refit_all(std::slice::from_mut(self));
+    }
+
+    /// [`Self::refit`] for deconvolvers that see the same pairs and share one delay pmf
+    /// (one per reward value, [`crate::decode`]): R̂ of each given p̂, then p̂ given all
+    /// of them (their least-squares systems summed), with the cold start compared on the
+    /// summed objective. One deconvolver: exactly `refit`.
+    pub(crate) fn refit_all(ds: &mut [Deconvolver]) {
+        if ds.is_empty() || ds[0].pairs.is_empty() {
             return;
         }
         // σ̂ from the previous fit (Σ r² before the first: an upper bound), shared by
         // both starts so that their objectives compare.
-        let sigma = (self.rss.unwrap_or(self.sum_r2).max(0.0) / self.t.max(1) as f64).sqrt();
-        self.fit_rewards(sigma, false);
-        if self.cfg.told.is_none() {
-            self.fit_pmf();
-            let warm_objective = self.fit_rewards(sigma, false);
-            let warm =
-                (self.pmf.clone(), self.r.clone(), self.r_pair.clone(), self.r_group.clone(), self.rss);
-            let k_n = self.cfg.max_delay + 1;
-            self.pmf = vec![1.0 / k_n as f64; k_n];
-            self.r
-                .iter_mut()
-                .chain(self.r_pair.iter_mut())
-                .chain(self.r_group.iter_mut())
-                .for_each(|x| *x = 0.0);
-            self.fit_rewards(sigma, false);
-            self.fit_pmf();
-            if self.fit_rewards(sigma, false) < warm_objective {
-                self.cold_wins += 1;
+        let sigmas: Vec<f64> =
+            ds.iter().map(|d| (d.rss.unwrap_or(d.sum_r2).max(0.0) / d.t.max(1) as f64).sqrt()).collect();
+        let fit_all = |ds: &mut [Deconvolver]| -> f64 {
+            ds.iter_mut().zip(&sigmas).map(|(d, &sigma)| d.fit_rewards(sigma, false)).sum()
+        };
+        fit_all(ds);
+        if ds[0].cfg.told.is_none() {
+            Self::fit_pmf_all(ds);
+            let warm_objective = fit_all(ds);
+            let warm: Vec<_> = ds
+                .iter()
+                .map(|d| (d.pmf.clone(), d.r.clone(), d.r_pair.clone(), d.r_group.clone(), d.rss))
+                .collect();
+            for d in ds.iter_mut() {
+                let k_n = d.cfg.max_delay + 1;
+                d.pmf = vec![1.0 / k_n as f64; k_n];
+                d.r.iter_mut().chain(d.r_pair.iter_mut()).chain(d.r_group.iter_mut()).for_each(|x| *x = 0.0);
+            }
+            fit_all(ds);
+            Self::fit_pmf_all(ds);
+            if fit_all(ds) < warm_objective {
+                ds.iter_mut().for_each(|d| d.cold_wins += 1);
             } else {
-                (self.pmf, self.r, self.r_pair, self.r_group, self.rss) = warm;
+                for (d, w) in ds.iter_mut().zip(warm) {
+                    (d.pmf, d.r, d.r_pair, d.r_group, d.rss) = w;
+                }
             }
         }
-        if self.joint_on() {
-            self.fit_rewards(sigma, true);
+        for (d, &sigma) in ds.iter_mut().zip(&sigmas) {
+            if d.joint_on() {
+                d.fit_rewards(sigma, true);
+            }
+            d.refits += 1;
         }
-        self.refits += 1;
     }
 
     /// Whether the joint test runs (on, and pair features only).
@@ -859,14 +886,16 @@ impl Deconvolver {
         0.5 * rss + penalty
     }
 
-    /// p given R: FISTA over the simplex on ½ pᵀAp − cᵀp.
-    fn fit_pmf(&mut self) {
+    /// The least-squares system of p given R̂, ½ pᵀAp − cᵀp: (A, c, R̂ by compact pair,
+    /// max |R̂|); None when R̂ is zero.
+    #[allow(clippy::type_complexity)]
+    fn pmf_system(&self) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>, f64)> {
         let n = self.pairs.len();
         let cap = self.cap;
         let k_n = self.cfg.max_delay + 1;
         let r: Vec<f64> = self.pairs.iter().map(|&x| self.r[x as usize]).collect();
         if r.iter().all(|&v| v == 0.0) {
-            return;
+            return None;
         }
         // q_j = Rᵀ C_j R over the support of R;  c_k = Σ_i R_i B_k(i).
         let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
@@ -904,18 +933,55 @@ impl Deconvolver {
             }
         }
         let rmax = r.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        let nu = self.cfg.pmf_prior * rmax * rmax;
-        let rho = self.cfg.pmf_smoothness * rmax * rmax;
+        Some((amat, cvec, r, rmax))
+    }
+
+    /// p given R̂ of every deconvolver in `ds` (sharing one pmf): FISTA over the simplex
+    /// on the sum of their systems ½ pᵀAp − cᵀp, then the reweighted passes.
+    fn fit_pmf_all(ds: &mut [Deconvolver]) {
+        let k_n = ds[0].cfg.max_delay + 1;
+        let cfg = ds[0].cfg.clone();
+        let mut systems: Vec<(usize, Vec<f64>, f64)> = Vec::new();
+        let mut total: Option<(Vec<f64>, Vec<f64>)> = None;
+        let mut rmax = 0.0f64;
+        for (di, d) in ds.iter().enumerate() {
+            let Some((amat, cvec, r, rm)) = d.pmf_system() else { continue };
+            rmax = rmax.max(rm);
+            total = Some(match total {
+                None => (amat, cvec),
+                Some((mut at, mut ct)) => {
+                    at.iter_mut().zip(&amat).for_each(|(x, y)| *x += y);
+                    ct.iter_mut().zip(&cvec).for_each(|(x, y)| *x += y);
+                    (at, ct)
+                }
+            });
+            systems.push((di, r, rm));
+        }
+        let Some((mut amat, cvec)) = total else { return };
+        let nu = cfg.pmf_prior * rmax * rmax;
+        let rho = cfg.pmf_smoothness * rmax * rmax;
         let trace_u: f64 = (0..k_n).map(|i| amat[i * k_n + i]).sum();
         if rho > 0.0 {
             add_roughness(&mut amat, k_n, rho);
         }
-        let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &self.pmf) else { return };
-        if self.cfg.pmf_weighted {
+        let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &ds[0].pmf) else { return };
+        if cfg.pmf_weighted {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
             for _ in 0..WEIGHTED_PASSES {
-                let (mut aw, cw) = self.weighted_stats(&r, &p, rmax);
+                let mut sum: Option<(Vec<f64>, Vec<f64>)> = None;
+                for (di, r, rm) in &systems {
+                    let (aw, cw) = ds[*di].weighted_stats(r, &p, *rm);
+                    sum = Some(match sum {
+                        None => (aw, cw),
+                        Some((mut at, mut ct)) => {
+                            at.iter_mut().zip(&aw).for_each(|(x, y)| *x += y);
+                            ct.iter_mut().zip(&cw).for_each(|(x, y)| *x += y);
+                            (at, ct)
+                        }
+                    });
+                }
+                let Some((mut aw, cw)) = sum else { break };
                 let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
                 if trace_w <= 0.0 {
                     break;
@@ -925,14 +991,16 @@ impl Deconvolver {
                     add_roughness(&mut aw, k_n, rho * trace_w / trace_u.max(f64::MIN_POSITIVE));
                 }
                 let lam: Vec<f64> =
-                    (0..k_n).map(|i| self.cfg.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
+                    (0..k_n).map(|i| cfg.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
                 match solve_pmf(&aw, &cw, nu_w, &lam, &p) {
                     Some(next) => p = next,
                     None => break,
                 }
             }
         }
-        self.pmf = p;
+        for d in ds.iter_mut() {
+            d.pmf.clone_from(&p);
+        }
     }
 
     /// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over the stored history, ỹ_t(k) = y_{t−k},
