@@ -51,6 +51,13 @@ pub struct BeyondParams {
     /// Refine the delay pmf by reweighted least squares on the stored history (each step
     /// weighted by the inverse variance of its delivery); false: plain least squares.
     pub pmf_weighted: bool,
+    /// Decode each delivery into the discrete reward values it is a sum of (9 = +10 − 1)
+    /// and deconvolve each value on its own with a shared delay pmf: the wall bumps' −1s
+    /// then form a series of their own, whose irregular timing identifies a delay wider
+    /// than the goal's period (docs/algorithms/beyond.md, "Delay estimate"). On by default:
+    /// on 9×9 it brought `deconv-model`'s worst uniform-delay median error at 50k from 5.0
+    /// to 1.7 steps at equal reward, and `deconv-q`'s reward from 100 % to 103 %.
+    pub decode_values: bool,
     /// κ_p ≥ 0, in the reweighted fit: a delay keeps its estimated probability only with
     /// more than κ_p standard errors of evidence (0: plain least squares, whose
     /// non-negativity turns noise into spurious mass at every delay). Default 1 (2, then
@@ -99,6 +106,7 @@ impl Default for BeyondParams {
             successor_groups: true,
             joint_test: 1.0,
             pmf_weighted: true,
+            decode_values: true,
             pmf_significance: 1.0,
             pmf_prior: 5.0,
             pmf_smoothness: 0.0,
@@ -191,5 +199,6 @@ pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
         pmf_smoothness: b.pmf_smoothness,
         refit_every: b.refit_every,
         told,
+        decode_values: b.decode_values,
     })
 }

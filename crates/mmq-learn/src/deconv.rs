@@ -108,6 +108,10 @@ pub struct DeconvConfig {
     pub refit_every: u64,
     /// A known pmf over 0..=K (then p̂ is not estimated).
     pub told: Option<Vec<f64>>,
+    /// Decode each delivery into the discrete reward values it is a sum of and fit one
+    /// reward table per value with a shared pmf ([`crate::decode`]); read by
+    /// [`crate::decode::ValueDeconvolver`], not by [`Deconvolver`].
+    pub decode_values: bool,
 }
 
 /// The delay pmf of `dist` over 0..=`max_delay`, the tail beyond folded into the last bin.
@@ -569,6 +573,18 @@ impl Deconvolver {
             self.b[k * cap + e] += reward;
         }
         self.t += 1;
+    }
+
+    /// Takes over `other`'s delay estimate, its snapshots and its counters (refits,
+    /// cold-start wins, joint-test drops): a deconvolver rebuilt from the history
+    /// continues where `other` was.
+    pub(crate) fn inherit(&mut self, other: &Deconvolver) {
+        self.pmf.clone_from(&other.pmf);
+        self.snapshots.clone_from(&other.snapshots);
+        self.refits = other.refits;
+        self.cold_wins = other.cold_wins;
+        self.joint_drops = other.joint_drops;
+        self.joint_factorisations = other.joint_factorisations;
     }
 
     /// Appends a snapshot of the delay estimate at the current step.
@@ -1073,12 +1089,12 @@ impl Deconvolver {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
 
-    fn cfg(k: usize, told: Option<Vec<f64>>) -> DeconvConfig {
+    pub(crate) fn cfg(k: usize, told: Option<Vec<f64>>) -> DeconvConfig {
         DeconvConfig {
             max_delay: k,
             reward_prior: 0.0,
@@ -1093,6 +1109,7 @@ mod tests {
             pmf_smoothness: 0.0,
             refit_every: 1_000_000,
             told,
+            decode_values: false,
         }
     }
 

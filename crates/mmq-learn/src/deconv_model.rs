@@ -14,7 +14,8 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::deconv::{DeconvConfig, Deconvolver};
+use crate::decode::ValueDeconvolver;
+use crate::deconv::DeconvConfig;
 use crate::spec::Params;
 use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table, max_of};
@@ -31,7 +32,7 @@ pub struct DeconvModel {
     tries: Vec<u32>,
     /// (s', N(s, a, s')) per pair.
     next: Vec<Vec<(u32, u32)>>,
-    deconv: Deconvolver,
+    deconv: ValueDeconvolver,
     optimism_visits: u32,
 }
 
@@ -51,7 +52,7 @@ impl DeconvModel {
             v: vec![p.q0; num_states],
             tries: vec![0; pairs],
             next: vec![Vec::new(); pairs],
-            deconv: Deconvolver::new(cfg, num_states, num_actions),
+            deconv: ValueDeconvolver::new(cfg, num_states, num_actions),
             optimism_visits,
         }
     }
@@ -62,7 +63,7 @@ impl DeconvModel {
     }
 
     /// The deconvolver (R̂ and p̂).
-    pub fn deconvolver(&self) -> &Deconvolver {
+    pub fn deconvolver(&self) -> &ValueDeconvolver {
         &self.deconv
     }
 

@@ -12,7 +12,8 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::deconv::{DeconvConfig, Deconvolver};
+use crate::decode::ValueDeconvolver;
+use crate::deconv::DeconvConfig;
 use crate::spec::Params;
 use crate::table::QTable;
 use crate::{Decision, Experience, Learner, Table, max_of};
@@ -22,7 +23,7 @@ use crate::{Decision, Experience, Learner, Table, max_of};
 pub struct DeconvQ {
     p: Params,
     q: QTable,
-    deconv: Deconvolver,
+    deconv: ValueDeconvolver,
     /// Steps after which a transition is learned a second time (0: never).
     replay_lag: usize,
     /// (s, a, s') of the last `replay_lag` + 1 steps, by t mod length.
@@ -44,7 +45,7 @@ impl DeconvQ {
         Self {
             p,
             q: QTable::new(num_states, num_actions, p.q0),
-            deconv: Deconvolver::new(cfg, num_states, num_actions),
+            deconv: ValueDeconvolver::new(cfg, num_states, num_actions),
             replay_lag,
             history: vec![(0, 0, 0); replay_lag + 1],
             seen: 0,
@@ -57,7 +58,7 @@ impl DeconvQ {
     }
 
     /// The deconvolver (R̂ and p̂).
-    pub fn deconvolver(&self) -> &Deconvolver {
+    pub fn deconvolver(&self) -> &ValueDeconvolver {
         &self.deconv
     }
 
@@ -143,6 +144,7 @@ pub(crate) mod tests {
             pmf_smoothness: 0.0,
             refit_every: 4,
             told: Some(vec![0.5, 0.5]),
+            decode_values: false,
         }
     }
 

@@ -17,6 +17,7 @@
 //! exploration randomness comes in from the caller's stream.
 
 pub mod beyond;
+pub mod decode;
 pub mod deconv;
 pub mod deconv_model;
 pub mod deconv_q;

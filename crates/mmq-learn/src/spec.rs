@@ -227,9 +227,13 @@ impl LearnerSpec {
                 sa * (self.max_delay as u128 + 1)
             }
             LearnerKind::QLambda | LearnerKind::SarsaLambda | LearnerKind::Oracle => sa,
-            // Q, R̂ and the lag statistics of every pair (worst case: all pairs visited).
+            // Q, R̂ and the lag statistics of every pair (worst case: all pairs visited),
+            // once per reward value when decoding (worst case: MAX_VALUES of them).
             LearnerKind::DeconvQ | LearnerKind::DeconvModel => {
-                2 * sa + crate::deconv::Deconvolver::stats_bytes(sa as usize, self.max_delay).div_ceil(8)
+                let copies = if self.beyond.decode_values { crate::decode::MAX_VALUES as u128 } else { 1 };
+                2 * sa
+                    + copies
+                        * crate::deconv::Deconvolver::stats_bytes(sa as usize, self.max_delay).div_ceil(8)
             }
         };
         (entries, entries * 8 + num_states as u128 * 12)

@@ -1,0 +1,432 @@
+//! Reward-value decoding: the deliveries of a world whose rewards take a few discrete
+//! values are sums of those values, and each value can be deconvolved on its own.
+//!
+//! A delivery of 9 in the paper's worlds is one +10 and one −1 that arrived together.
+//! Least squares on the summed deliveries ([`crate::deconv`]) reads the −1 as noise on
+//! the +10s; split apart, the −1s form a series of their own with almost no noise. That
+//! matters for the delay estimate: the goal's rewards come at a near-constant period, so
+//! a delay k and k + period explain them alike, while the wall bumps that exploration
+//! causes come at irregular times and tell the delays apart
+//! (docs/algorithms/beyond.md, "Delay estimate").
+//!
+//! The values are found from the deliveries themselves: a non-zero delivered value seen
+//! often enough ([`MIN_SEEN`] times and 1 % of the non-zero deliveries), most frequent
+//! first, is a new value unless it is a sum of at most [`MAX_PARTS`] values already
+//! found (9 = 10 − 1, 20 = 10 + 10); at most [`MAX_VALUES`]. A delivery r then decodes
+//! into the counts n_v ≥ 0 with Σ_v n_v v = r and the fewest parts; one that does not
+//! decode goes whole to the value of largest magnitude. Each value v gets its own
+//! [`Deconvolver`] fed n_v·v every step, and all of them share one delay pmf
+//! ([`Deconvolver::refit_all`]): R̂ = Σ_v R̂_v. Until two values are found (and always
+//! with decoding off) a single deconvolver sees the summed deliveries, exactly as
+//! without this module. When the set of values changes, the per-value deconvolvers are
+//! rebuilt from the stored history.
+//!
+//! Assumes rewards are deterministic per transition with few distinct values (the
+//! paper's worlds, the maze, the robot); with continuous rewards no value is seen
+//! twice and the summed fit is kept. Memory: one set of co-occurrence counts per value.
+
+use std::collections::HashMap;
+
+use crate::Table;
+use crate::deconv::{DeconvConfig, Deconvolver, SNAPSHOT_EVERY, Snapshot};
+
+/// At most this many reward values.
+pub const MAX_VALUES: usize = 4;
+/// A delivery decodes into at most this many rewards.
+pub const MAX_PARTS: u32 = 12;
+/// A delivered value must be seen at least this many times to be a reward value.
+pub const MIN_SEEN: u32 = 5;
+/// Delivered values are compared in units of 1e-9.
+const QUANTUM: f64 = 1e-9;
+
+/// The key of a delivered value.
+fn key(v: f64) -> i64 {
+    (v / QUANTUM).round() as i64
+}
+
+/// The counts n_v ≥ 0, Σ n_v ≤ [`MAX_PARTS`], with Σ n_v values[v] = r (to 1e-9 in
+/// relative terms) and the fewest parts (the first found of equally few); None when no
+/// counts add up to r.
+pub fn decode(values: &[f64], r: f64) -> Option<Vec<u32>> {
+    fn search(
+        values: &[f64],
+        r: f64,
+        tol: f64,
+        left: u32,
+        at: usize,
+        cur: &mut Vec<u32>,
+        best: &mut Option<(u32, Vec<u32>)>,
+    ) {
+        let used: u32 = cur.iter().sum();
+        if best.as_ref().is_some_and(|(n, _)| *n <= used) {
+            return;
+        }
+        if at == values.len() {
+            let sum: f64 = cur.iter().zip(values).map(|(&n, &v)| f64::from(n) * v).sum();
+            if (sum - r).abs() <= tol {
+                *best = Some((used, cur.clone()));
+            }
+            return;
+        }
+        for n in 0..=left {
+            cur.push(n);
+            search(values, r, tol, left - n, at + 1, cur, best);
+            cur.pop();
+        }
+    }
+    let scale = values.iter().fold(r.abs(), |m, v| m.max(v.abs())).max(1.0);
+    let mut best = None;
+    search(values, r, 1e-9 * scale, MAX_PARTS, 0, &mut Vec::with_capacity(values.len()), &mut best);
+    best.map(|(_, n)| n)
+}
+
+/// The reward values in `seen` (delivered value key → the value as first seen and the
+/// times seen; `nonzero` deliveries in all), sorted ascending: see the module documentation.
+pub fn find_values(seen: &HashMap<i64, (f64, u32)>, nonzero: u64) -> Vec<f64> {
+    let min = u64::from(MIN_SEEN).max(nonzero / 100);
+    let mut cand: Vec<(u32, i64, f64)> =
+        seen.iter().filter(|&(_, &(_, n))| u64::from(n) >= min).map(|(&k, &(v, n))| (n, k, v)).collect();
+    cand.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.cmp(&b.1)));
+    let mut values: Vec<f64> = Vec::new();
+    for (_, _, v) in cand {
+        if values.len() == MAX_VALUES {
+            break;
+        }
+        if values.is_empty() || decode(&values, v).is_none() {
+            values.push(v);
+        }
+    }
+    values.sort_by(f64::total_cmp);
+    values
+}
+
+/// One step of history: pair, next state, delivery.
+#[derive(Clone, Copy, Debug)]
+struct Step {
+    x: u32,
+    next: u32,
+    r: f64,
+}
+
+/// Deconvolution with the deliveries decoded into reward values (or summed, with
+/// `decode_values` off): the reward model of `deconv-q` and `deconv-model`.
+#[derive(Clone, Debug)]
+pub struct ValueDeconvolver {
+    cfg: DeconvConfig,
+    num_states: usize,
+    num_actions: usize,
+    /// The reward values, ascending (empty: one deconvolver of the summed deliveries).
+    values: Vec<f64>,
+    /// One deconvolver per value (or the one of the summed deliveries).
+    parts: Vec<Deconvolver>,
+    /// R̂ = Σ_v R̂_v by pair id (with values).
+    r: Vec<f64>,
+    /// Every step (with decoding on), and the steps at which a new run started.
+    hist: Vec<Step>,
+    runs: Vec<usize>,
+    /// Each non-zero delivered value (as first seen) and the times it was seen, by key;
+    /// and the non-zero deliveries.
+    seen: HashMap<i64, (f64, u32)>,
+    nonzero: u64,
+    /// Each delivered value's shares by value (cache of [`Self::shares`]).
+    cache: HashMap<i64, Vec<f64>>,
+    next_refit: u64,
+    /// Rebuilds of the per-value deconvolvers.
+    rebuilds: u64,
+}
+
+impl ValueDeconvolver {
+    /// A reward model over `num_states` × `num_actions` pairs.
+    pub fn new(cfg: DeconvConfig, num_states: usize, num_actions: usize) -> Self {
+        Self {
+            parts: vec![Deconvolver::new(cfg.clone(), num_states, num_actions)],
+            cfg,
+            num_states,
+            num_actions,
+            values: Vec::new(),
+            r: vec![0.0; num_states * num_actions],
+            hist: Vec::new(),
+            runs: Vec::new(),
+            seen: HashMap::new(),
+            nonzero: 0,
+            cache: HashMap::new(),
+            next_refit: 0,
+            rebuilds: 0,
+        }
+    }
+
+    /// R̂(x).
+    #[inline]
+    pub fn reward(&self, x: usize) -> f64 {
+        if self.values.is_empty() { self.parts[0].reward(x) } else { self.r[x] }
+    }
+
+    /// The whole reward table R̂ by pair id.
+    pub fn rewards(&self) -> &[f64] {
+        if self.values.is_empty() { self.parts[0].rewards() } else { &self.r }
+    }
+
+    /// The (shared) delay pmf p̂.
+    pub fn pmf(&self) -> &[f64] {
+        self.parts[0].pmf()
+    }
+
+    /// The reward values found (empty until two are).
+    pub fn values(&self) -> &[f64] {
+        &self.values
+    }
+
+    /// The deconvolvers: one per value, or the one of the summed deliveries.
+    pub fn parts(&self) -> &[Deconvolver] {
+        &self.parts
+    }
+
+    /// Snapshots of the delay estimate.
+    pub fn snapshots(&self) -> &[Snapshot] {
+        self.parts[0].snapshots()
+    }
+
+    /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
+    /// Refits when due; returns true when it did.
+    pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
+        if !self.cfg.decode_values {
+            return self.parts[0].observe_transition(x, next_state, reward);
+        }
+        self.hist.push(Step { x: x as u32, next: next_state as u32, r: reward });
+        if reward != 0.0 {
+            self.seen.entry(key(reward)).or_insert((reward, 0)).1 += 1;
+            self.nonzero += 1;
+        }
+        if self.values.is_empty() {
+            let refitted = self.parts[0].observe_transition(x, next_state, reward);
+            if refitted {
+                self.update_values();
+            }
+            return refitted;
+        }
+        let shares = self.shares(reward);
+        for (d, &share) in self.parts.iter_mut().zip(&shares) {
+            d.record_successor(x, next_state);
+            d.record(x, share);
+        }
+        let t = self.parts[0].steps();
+        let mut refitted = false;
+        if t >= self.next_refit {
+            self.refit();
+            refitted = true;
+        }
+        if t.is_multiple_of(SNAPSHOT_EVERY) {
+            self.parts[0].push_snapshot();
+        }
+        refitted
+    }
+
+    /// The shared refit of the per-value deconvolvers, then a check of the values.
+    fn refit(&mut self) {
+        Deconvolver::refit_all(&mut self.parts);
+        let t = self.parts[0].steps();
+        self.next_refit = t + self.cfg.refit_every.max(t / 8);
+        self.sum_rewards();
+        self.update_values();
+    }
+
+    /// R̂ = Σ_v R̂_v.
+    fn sum_rewards(&mut self) {
+        self.r.iter_mut().for_each(|x| *x = 0.0);
+        for d in &self.parts {
+            self.r.iter_mut().zip(d.rewards()).for_each(|(x, y)| *x += y);
+        }
+    }
+
+    /// A delivery's part for each value: n_v·v by [`decode`], or all of it to the value of
+    /// largest magnitude when it does not decode.
+    fn shares(&mut self, reward: f64) -> Vec<f64> {
+        let values = &self.values;
+        self.cache
+            .entry(key(reward))
+            .or_insert_with(|| match decode(values, reward) {
+                Some(n) => n.iter().zip(values).map(|(&n, &v)| f64::from(n) * v).collect(),
+                None => {
+                    let big = (0..values.len())
+                        .max_by(|&a, &b| values[a].abs().total_cmp(&values[b].abs()))
+                        .unwrap_or(0);
+                    (0..values.len()).map(|v| if v == big { reward } else { 0.0 }).collect()
+                }
+            })
+            .clone()
+    }
+
+    /// Finds the values again; when two or more are found and they changed, rebuilds one
+    /// deconvolver per value from the history (continuing the delay estimate) and refits.
+    fn update_values(&mut self) {
+        let values = find_values(&self.seen, self.nonzero);
+        if values.len() < 2 || values == self.values {
+            return;
+        }
+        self.values = values;
+        self.cache.clear();
+        self.rebuilds += 1;
+        let mut parts: Vec<Deconvolver> = (0..self.values.len())
+            .map(|_| Deconvolver::new(self.cfg.clone(), self.num_states, self.num_actions))
+            .collect();
+        let runs = self.runs.clone();
+        let mut run = runs.iter().peekable();
+        for j in 0..self.hist.len() {
+            while run.next_if(|&&start| start == j).is_some() {
+                parts.iter_mut().for_each(Deconvolver::reset_history);
+            }
+            let s = self.hist[j];
+            let shares = self.shares(s.r);
+            for (d, &share) in parts.iter_mut().zip(&shares) {
+                d.record_successor(s.x as usize, s.next as usize);
+                d.record(s.x as usize, share);
+            }
+        }
+        for d in &mut parts {
+            d.inherit(&self.parts[0]);
+        }
+        self.parts = parts;
+        self.refit();
+    }
+
+    /// R̂ (`r_hat`, shape [states, actions]) and p̂ (`delay_pmf`), for export.
+    pub fn tables(&self) -> [Table; 2] {
+        let [mut r, p] = self.parts[0].tables();
+        r.data = self.rewards().to_vec();
+        [r, p]
+    }
+
+    /// Learner metrics: the delay estimate ([`Deconvolver::metrics`], shared) and the
+    /// reward values found.
+    pub fn metrics(&self) -> Vec<(String, f64)> {
+        let mut m = self.parts[0].metrics();
+        if self.cfg.decode_values {
+            m.push(("reward/values_found".to_string(), self.values.len() as f64));
+            m.push(("reward/value_rebuilds".to_string(), self.rebuilds as f64));
+            for (v, &value) in self.values.iter().enumerate() {
+                m.push((format!("reward/value/{v}"), value));
+            }
+        }
+        m
+    }
+
+    /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
+    pub fn reset_history(&mut self) {
+        self.parts.iter_mut().for_each(Deconvolver::reset_history);
+        if self.cfg.decode_values {
+            self.runs.push(self.hist.len());
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::deconv::pmf_mean;
+    use crate::deconv::tests::cfg;
+    use mmq_core::seed::rng_from_seed;
+    use rand::RngExt;
+
+    /// Three states, 0 → 1 → 2 (the goal) by action 0; action 1 bumps (stays, −1) in 0
+    /// and 1; any action in 2 pays +10 and returns to 0. Action 1 with probability 0.3,
+    /// delays uniform on {1, 2, 3}; `steps` steps into `observe`.
+    fn chain(steps: usize, bumps: bool, mut observe: impl FnMut(usize, usize, f64)) {
+        let mut rng = rng_from_seed(5);
+        let (mut s, mut pending) = (0, vec![0.0; steps + 4]);
+        for t in 0..steps {
+            let a = usize::from(rng.random_bool(0.3));
+            let (s2, r) = match (s, a) {
+                (2, _) => (0, 10.0),
+                (s, 0) => (s + 1, 0.0),
+                (s, _) => (s, if bumps { -1.0 } else { 0.0 }),
+            };
+            if r != 0.0 {
+                pending[t + rng.random_range(1..=3)] += r;
+            }
+            observe(s * 2 + a, s2, pending[t]);
+            s = s2;
+        }
+    }
+
+    fn config() -> DeconvConfig {
+        let mut c = cfg(6, None);
+        (c.lasso, c.significance, c.reward_prior, c.refit_every) = (0.1, 1.0, 1.0, 1000);
+        (c.successor_groups, c.pmf_weighted, c.pmf_significance, c.pmf_prior) = (true, true, 1.0, 5.0);
+        c.decode_values = true;
+        c
+    }
+
+    /// With one reward value there is nothing to decode: every step, R̂ and p̂ are those of
+    /// the plain deconvolver of the summed deliveries, bit for bit.
+    #[test]
+    fn one_value_is_the_summed_fit() {
+        let mut plain = Deconvolver::new(config(), 3, 2);
+        let mut decoded = ValueDeconvolver::new(config(), 3, 2);
+        chain(20_000, false, |x, s2, r| {
+            assert_eq!(plain.observe_transition(x, s2, r), decoded.observe_transition(x, s2, r));
+            assert_eq!(plain.rewards(), decoded.rewards());
+        });
+        assert!(decoded.values().is_empty());
+        assert_eq!(plain.pmf(), decoded.pmf());
+        assert!((plain.reward(4) - 10.0).abs() < 0.5, "R̂(G) = {}", plain.reward(4));
+    }
+
+    /// Wall bumps (−1) and the goal (+10): the deliveries decode into the two values, each
+    /// gets its own reward table (the −1 table carries the bumps and not the goal, and
+    /// the other way round), R̂ is their sum, and one pmf is shared and right.
+    #[test]
+    fn two_values_are_deconvolved_apart_with_one_pmf() {
+        let mut d = ValueDeconvolver::new(config(), 3, 2);
+        chain(40_000, true, |x, s2, r| {
+            d.observe_transition(x, s2, r);
+        });
+        assert_eq!(d.values(), &[-1.0, 10.0]);
+        let [neg, pos] = d.parts() else { panic!("{} parts", d.parts().len()) };
+        for x in 0..6 {
+            assert_eq!(d.reward(x), neg.reward(x) + pos.reward(x), "R̂ = Σ_v R̂_v at pair {x}");
+        }
+        // The lasso biases an estimate towards zero by λ₁ = 0.1 and by its significance
+        // threshold: −0.86 for a bump.
+        for bump in [1, 3] {
+            assert!((neg.reward(bump) + 1.0).abs() < 0.2, "R̂_−1(bump {bump}) = {}", neg.reward(bump));
+            assert_eq!(pos.reward(bump), 0.0, "the +10 table has no bump");
+        }
+        for goal in [4, 5] {
+            assert!((pos.reward(goal) - 10.0).abs() < 0.5, "R̂_10(G) = {}", pos.reward(goal));
+            assert_eq!(neg.reward(goal), 0.0, "the −1 table has no goal");
+        }
+        assert_eq!(neg.pmf(), pos.pmf());
+        assert!((pmf_mean(d.pmf()) - 2.0).abs() < 0.1, "p̂ = {:?}", d.pmf());
+        let m = d.metrics();
+        assert!(m.contains(&("reward/values_found".to_string(), 2.0)));
+    }
+
+    #[test]
+    fn deliveries_decode_into_the_fewest_values() {
+        let v = [-1.0, 10.0];
+        assert_eq!(decode(&v, 9.0), Some(vec![1, 1]));
+        assert_eq!(decode(&v, 0.0), Some(vec![0, 0]));
+        assert_eq!(decode(&v, 19.0), Some(vec![1, 2]));
+        assert_eq!(decode(&v, -2.0), Some(vec![2, 0]));
+        assert_eq!(decode(&v, 20.0), Some(vec![0, 2]));
+        // 10·a − b = 3 needs 7 bumps and a goal: 8 parts, within MAX_PARTS.
+        assert_eq!(decode(&v, 3.0), Some(vec![7, 1]));
+        assert_eq!(decode(&v, 0.5), None);
+        assert_eq!(decode(&v, -13.0), None, "13 parts are more than MAX_PARTS");
+        assert_eq!(decode(&[], 0.0), Some(vec![]));
+        assert_eq!(decode(&[], 1.0), None);
+    }
+
+    #[test]
+    fn values_are_the_frequent_deliveries_that_are_not_sums() {
+        let mut seen = HashMap::new();
+        for (v, n) in [(10.0, 50), (-1.0, 40), (9.0, 8), (20.0, 6), (-2.0, 5), (0.25, 4), (7.5, 6)] {
+            seen.insert(key(v), (v, n));
+        }
+        // 0.25 is seen too rarely; 9, 20, −2 are sums of 10 and −1; 7.5 is not.
+        assert_eq!(find_values(&seen, 119), vec![-1.0, 7.5, 10.0]);
+        // 1 % of 1000 non-zero deliveries is 10: 7.5 (6 times) no longer counts.
+        assert_eq!(find_values(&seen, 1000), vec![-1.0, 10.0]);
+        assert!(find_values(&HashMap::new(), 0).is_empty());
+    }
+}
