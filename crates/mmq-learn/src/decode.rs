@@ -266,8 +266,14 @@ impl ValueDeconvolver {
         self.values = values;
         self.cache.clear();
         self.rebuilds += 1;
-        let mut parts: Vec<Deconvolver> = (0..self.values.len())
-            .map(|_| Deconvolver::new(self.cfg.clone(), self.num_states, self.num_actions))
+        let mut parts: Vec<Deconvolver> = self
+            .values
+            .iter()
+            .map(|&v| {
+                let mut d = Deconvolver::new(self.cfg.clone(), self.num_states, self.num_actions);
+                d.set_sign(v);
+                d
+            })
             .collect();
         let runs = self.runs.clone();
         let mut run = runs.iter().peekable();
@@ -395,6 +401,7 @@ mod tests {
             assert!((pos.reward(goal) - 10.0).abs() < 0.5, "R̂_10(G) = {}", pos.reward(goal));
             assert_eq!(neg.reward(goal), 0.0, "the −1 table has no goal");
         }
+        assert!(neg.rewards().iter().all(|&r| r <= 0.0) && pos.rewards().iter().all(|&r| r >= 0.0));
         assert_eq!(neg.pmf(), pos.pmf());
         assert!((pmf_mean(d.pmf()) - 2.0).abs() < 0.1, "p̂ = {:?}", d.pmf());
         let m = d.metrics();

@@ -379,6 +379,9 @@ pub struct Deconvolver {
     joint_drops: u64,
     joint_factorisations: u64,
     snapshots: Vec<Snapshot>,
+    /// Sign every reward feature must have (+1, −1; 0: free): a deconvolver of one reward
+    /// value's deliveries ([`crate::decode`]) only fits rewards of that value's sign.
+    sign: f64,
 }
 
 impl Deconvolver {
@@ -424,6 +427,7 @@ impl Deconvolver {
             joint_drops: 0,
             joint_factorisations: 0,
             snapshots: Vec::new(),
+            sign: 0.0,
         }
     }
 
@@ -587,6 +591,11 @@ impl Deconvolver {
         self.joint_factorisations = other.joint_factorisations;
     }
 
+    /// Restricts every reward feature to the sign of `sign` (0: free).
+    pub(crate) fn set_sign(&mut self, sign: f64) {
+        self.sign = sign.signum() * f64::from(u8::from(sign != 0.0));
+    }
+
     /// Appends a snapshot of the delay estimate at the current step.
     pub(crate) fn push_snapshot(&mut self) {
         self.snapshots.push(Snapshot { t: self.t, mean: pmf_mean(&self.pmf), median: pmf_median(&self.pmf) });
@@ -746,15 +755,19 @@ impl Deconvolver {
         let m = (self.pairs.len() + self.pairs.len() / self.num_actions.max(1)).max(2) as f64;
         let kappa = self.cfg.significance * (2.0 * m.ln()).sqrt() * sigma;
         let lasso = self.cfg.lasso;
+        // The exact minimiser along one feature; with a sign constraint, clipped at zero
+        // (still exact: the one-dimensional problem is convex).
+        let sign = self.sign;
         let soft = |z: f64, info: f64, factor: f64| {
             let thr = factor * (lasso * info + kappa * info.sqrt());
-            if z > thr {
+            let v = if z > thr {
                 (z - thr) / (info + ridge)
             } else if z < -thr {
                 (z + thr) / (info + ridge)
             } else {
                 0.0
-            }
+            };
+            if v * sign < 0.0 { 0.0 } else { v }
         };
         // With group features, a pair's own reward pays PAIR_PENALTY × a group's penalty:
         // of two explanations that fit equally (the goal's actions, or the only pair that
@@ -1110,6 +1123,27 @@ pub(crate) mod tests {
             refit_every: 1_000_000,
             told,
             decode_values: false,
+        }
+    }
+
+    /// The sign constraint of one reward value's deconvolver, by hand. Told p = (½, ½),
+    /// two pairs alternating: deliveries 2, 3, 3, 3 are exactly ½ R(x_t) + ½ R(x_{t−1})
+    /// with R = (4, 2). Free or held non-negative, the unpenalised fit finds (4, 2); held
+    /// non-positive, both stay at 0 — the constrained least-squares optimum when every
+    /// delivery is positive and every regressor non-negative.
+    #[test]
+    fn sign_constraint_by_hand() {
+        for (sign, want) in [(0.0, [4.0, 2.0]), (1.0, [4.0, 2.0]), (-1.0, [0.0, 0.0])] {
+            let mut c = cfg(1, Some(vec![0.5, 0.5]));
+            c.refit_every = 4;
+            let mut d = Deconvolver::new(c, 2, 1);
+            d.set_sign(sign);
+            for (t, r) in [2.0, 3.0, 3.0, 3.0].into_iter().enumerate() {
+                d.observe_transition(t % 2, (t + 1) % 2, r);
+            }
+            for (x, w) in want.iter().enumerate() {
+                assert!((d.reward(x) - w).abs() < 1e-9, "sign {sign}: R̂ = {:?}", d.rewards());
+            }
         }
     }
 
