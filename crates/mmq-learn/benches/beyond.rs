@@ -9,6 +9,8 @@
 //!   each learner as the runner builds it from the default [`LearnerSpec`]; `q` is the
 //!   reference. The oracle's channel keeps the ground-truth ledger it reads.
 //! - `.../deconv-q-told`, `.../deconv-model-told`: told the true pmf (no pmf estimate).
+//! - `.../deconv-q-summed`, `.../deconv-model-summed`: `decode_values` off (one
+//!   deconvolver of the summed deliveries instead of one per reward value).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
@@ -82,6 +84,11 @@ fn bench(c: &mut Criterion) {
             ..base(kind)
         };
         g.bench_function(format!("{}-told", kind.name()), |b| b.iter(|| run(&spec, &w)));
+        let spec = LearnerSpec {
+            beyond: BeyondParams { decode_values: false, ..BeyondParams::default() },
+            ..base(kind)
+        };
+        g.bench_function(format!("{}-summed", kind.name()), |b| b.iter(|| run(&spec, &w)));
     }
     g.finish();
 }
