@@ -28,7 +28,7 @@
 use std::collections::HashMap;
 
 use crate::Table;
-use crate::deconv::{DeconvConfig, Deconvolver, SNAPSHOT_EVERY, Snapshot};
+use crate::deconv::{DeconvConfig, Deconvolver, SNAPSHOT_EVERY, next_refit_after};
 
 /// At most this many reward values.
 pub const MAX_VALUES: usize = 4;
@@ -181,11 +181,6 @@ impl ValueDeconvolver {
         &self.parts
     }
 
-    /// Snapshots of the delay estimate.
-    pub fn snapshots(&self) -> &[Snapshot] {
-        self.parts[0].snapshots()
-    }
-
     /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
     /// Refits when due; returns true when it did.
     pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
@@ -225,7 +220,7 @@ impl ValueDeconvolver {
     fn refit(&mut self) {
         Deconvolver::refit_all(&mut self.parts);
         let t = self.parts[0].steps();
-        self.next_refit = t + self.cfg.refit_every.max(t / 8);
+        self.next_refit = next_refit_after(self.cfg.refit_every, t);
         self.sum_rewards();
         self.update_values();
     }

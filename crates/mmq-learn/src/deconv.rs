@@ -241,6 +241,28 @@ pub fn joint_failure(inv: &nalgebra::DMatrix<f64>, active: &[usize], rp: &[f64],
 }
 
 /// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
+/// A least-squares system ½ pᵀAp − cᵀp of the pmf fit: (A, c).
+type System = (Vec<f64>, Vec<f64>);
+
+/// `total` + `system`, elementwise over (A, c); the first system is taken as it is (so
+/// that one deconvolver's fit is bit for bit its own).
+fn add_system(total: Option<System>, system: System) -> Option<System> {
+    Some(match total {
+        None => system,
+        Some((mut a, mut c)) => {
+            a.iter_mut().zip(&system.0).for_each(|(x, y)| *x += y);
+            c.iter_mut().zip(&system.1).for_each(|(x, y)| *x += y);
+            (a, c)
+        }
+    })
+}
+
+/// The step of the next refit after one at step `t`: every `refit_every` steps early on,
+/// every t/8 later.
+pub(crate) fn next_refit_after(refit_every: u64, t: u64) -> u64 {
+    t + refit_every.max(t / 8)
+}
+
 pub fn project_simplex(v: &mut [f64]) {
     let mut u: Vec<f64> = v.to_vec();
     u.sort_by(|a, b| b.total_cmp(a));
@@ -536,7 +558,7 @@ impl Deconvolver {
         let mut refitted = false;
         if self.t >= self.next_refit {
             self.refit();
-            self.next_refit = self.t + self.cfg.refit_every.max(self.t / 8);
+            self.next_refit = next_refit_after(self.cfg.refit_every, self.t);
             refitted = true;
         }
         if self.t.is_multiple_of(SNAPSHOT_EVERY) {
@@ -593,7 +615,7 @@ impl Deconvolver {
 
     /// Restricts every reward feature to the sign of `sign` (0: free).
     pub(crate) fn set_sign(&mut self, sign: f64) {
-        self.sign = sign.signum() * f64::from(u8::from(sign != 0.0));
+        self.sign = if sign == 0.0 { 0.0 } else { sign.signum() };
     }
 
     /// Appends a snapshot of the delay estimate at the current step.
@@ -971,19 +993,12 @@ impl Deconvolver {
         let k_n = ds[0].cfg.max_delay + 1;
         let cfg = ds[0].cfg.clone();
         let mut systems: Vec<(usize, Vec<f64>, f64)> = Vec::new();
-        let mut total: Option<(Vec<f64>, Vec<f64>)> = None;
+        let mut total: Option<System> = None;
         let mut rmax = 0.0f64;
         for (di, d) in ds.iter().enumerate() {
             let Some((amat, cvec, r, rm)) = d.pmf_system() else { continue };
             rmax = rmax.max(rm);
-            total = Some(match total {
-                None => (amat, cvec),
-                Some((mut at, mut ct)) => {
-                    at.iter_mut().zip(&amat).for_each(|(x, y)| *x += y);
-                    ct.iter_mut().zip(&cvec).for_each(|(x, y)| *x += y);
-                    (at, ct)
-                }
-            });
+            total = add_system(total, (amat, cvec));
             systems.push((di, r, rm));
         }
         let Some((mut amat, cvec)) = total else { return };
@@ -998,18 +1013,9 @@ impl Deconvolver {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
             for _ in 0..WEIGHTED_PASSES {
-                let mut sum: Option<(Vec<f64>, Vec<f64>)> = None;
-                for (di, r, rm) in &systems {
-                    let (aw, cw) = ds[*di].weighted_stats(r, &p, *rm);
-                    sum = Some(match sum {
-                        None => (aw, cw),
-                        Some((mut at, mut ct)) => {
-                            at.iter_mut().zip(&aw).for_each(|(x, y)| *x += y);
-                            ct.iter_mut().zip(&cw).for_each(|(x, y)| *x += y);
-                            (at, ct)
-                        }
-                    });
-                }
+                let sum = systems
+                    .iter()
+                    .fold(None, |sum, (di, r, rm)| add_system(sum, ds[*di].weighted_stats(r, &p, *rm)));
                 let Some((mut aw, cw)) = sum else { break };
                 let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
                 if trace_w <= 0.0 {
