@@ -171,6 +171,11 @@ impl ValueDeconvolver {
         self.parts[0].pmf()
     }
 
+    /// Standard errors of the shared pmf's median ([`Deconvolver::median_se`]).
+    pub fn median_se(&self) -> Option<crate::deconv::MedianSe> {
+        self.parts[0].median_se()
+    }
+
     /// The reward values found (empty until two are).
     pub fn values(&self) -> &[f64] {
         &self.values
