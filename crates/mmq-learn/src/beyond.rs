@@ -79,6 +79,17 @@ pub struct BeyondParams {
     /// `deconv-model`: a pair tried fewer times than this keeps its optimistic value q0
     /// (R-max style exploration); 0 plans with every pair's estimate at once.
     pub optimism_visits: u32,
+    /// `deconv-model`: probability per step, in [0, 1], that a *delay probe* falls due
+    /// while the median of the delay estimate has a standard error above
+    /// `probe_precision`; a due probe is taken at the first non-exploring step in a state
+    /// where some action is known to keep the agent where it is at a cost (tried ≥
+    /// `optimism_visits` times, never led elsewhere, R̂ < 0: a wall bump). Its reward
+    /// leaves at a random time and so samples the delay without the period of the goal's
+    /// rewards (0: off; [`crate::deconv_model`]).
+    pub probe_rate: f64,
+    /// `deconv-model`: probes stop once the median of the delay estimate has a standard
+    /// error of at most this many steps ([`crate::deconv::median_se`]; > 0).
+    pub probe_precision: f64,
     /// `deconv-q`: each transition is learned again this many steps later, when R̂ has
     /// heard of its reward (0: learned once, at once).
     pub replay_lag: usize,
@@ -112,6 +123,8 @@ impl Default for BeyondParams {
             pmf_smoothness: 0.0,
             refit_every: 250,
             optimism_visits: 10,
+            probe_rate: 0.02,
+            probe_precision: 0.5,
             replay_lag: 50,
             kernel_width: 10.0,
             bootstrap: crate::mmq_kernel::Bootstrap::All,
@@ -147,6 +160,20 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
             "kernel_width",
             b.kernel_width.to_string(),
             "use a kernel width > 0 in steps of the delay estimate, e.g. 10 (inf: no kernel)",
+        );
+    }
+    if !(0.0..=1.0).contains(&b.probe_rate) {
+        return bad(
+            "probe_rate",
+            b.probe_rate.to_string(),
+            "use a probability in [0, 1], e.g. 0.02 (0: off)",
+        );
+    }
+    if !(b.probe_precision.is_finite() && b.probe_precision > 0.0) {
+        return bad(
+            "probe_precision",
+            b.probe_precision.to_string(),
+            "use a standard error > 0 in steps, e.g. 0.5",
         );
     }
     if b.refit_every == 0 {

@@ -11,8 +11,20 @@
 //!
 //! m = `optimism_visits`: pairs tried fewer times keep the optimistic q0 (R-max style),
 //! which drives exploration on top of ε-greedy.
+//!
+//! *Delay probes.* A policy that has learned to avoid costs also stops producing the
+//! rewards that date the delay best: its goal rewards come at a near-constant period, and
+//! a delay k cannot be told from k + period from them. While the median of p̂ is
+//! imprecise ([`crate::deconv::median_se`]: a standard error above `probe_precision`
+//! steps and, on the probability scale, above [`PROBE_CDF_PRECISION`]), a probe falls
+//! due with probability `probe_rate` per step; a due probe is taken at the first step that
+//! is not ε-exploration in a state with an action known to keep the agent in place at a
+//! cost (tried ≥ max(m, 1) times, never led elsewhere, R̂ < 0: a wall bump). The cost
+//! leaves at a time drawn at random and reaches the agent one delay later: a sample of
+//! the delay that the period does not alias.
 
 use mmq_core::{Action, Rng, State};
+use rand::RngExt;
 
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
@@ -34,6 +46,31 @@ pub struct DeconvModel {
     next: Vec<Vec<(u32, u32)>>,
     deconv: ValueDeconvolver,
     optimism_visits: u32,
+    probes: Probes,
+    /// A probe fell due and waits for a state that has one.
+    probe_due: bool,
+    /// Probes taken.
+    probes_taken: u64,
+}
+
+/// Probes also stop once the probability below the median has at most this standard
+/// error: the median of a pmf with two lobes can lie where there is almost no mass, and
+/// then no number of probes pins it to a fraction of a step.
+pub const PROBE_CDF_PRECISION: f64 = 0.02;
+
+/// Delay probes of [`DeconvModel`] (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probes {
+    /// Probability per step that a probe falls due (0: off); a due probe is taken at the
+    /// first non-exploring step in a state that has one.
+    pub rate: f64,
+    /// Probes stop once the median of p̂ has at most this standard error, steps.
+    pub precision: f64,
+}
+
+impl Probes {
+    /// No probes.
+    pub const OFF: Probes = Probes { rate: 0.0, precision: f64::INFINITY };
 }
 
 impl DeconvModel {
@@ -42,6 +79,7 @@ impl DeconvModel {
         p: Params,
         cfg: DeconvConfig,
         optimism_visits: u32,
+        probes: Probes,
         num_states: usize,
         num_actions: usize,
     ) -> Self {
@@ -54,6 +92,9 @@ impl DeconvModel {
             next: vec![Vec::new(); pairs],
             deconv: ValueDeconvolver::new(cfg, num_states, num_actions),
             optimism_visits,
+            probes,
+            probe_due: false,
+            probes_taken: 0,
         }
     }
 
@@ -65,6 +106,19 @@ impl DeconvModel {
     /// The deconvolver (R̂ and p̂).
     pub fn deconvolver(&self) -> &ValueDeconvolver {
         &self.deconv
+    }
+
+    /// The first action of `s` that is a possible delay probe: tried at least
+    /// max(m, 1) times, only ever led back to `s`, and R̂ < 0.
+    pub fn probe_action(&self, s: State) -> Option<Action> {
+        let a_n = self.q.num_actions();
+        let m = self.optimism_visits.max(1);
+        (0..a_n).find(|&a| {
+            let i = s * a_n + a;
+            self.tries[i] >= m
+                && matches!(self.next[i][..], [(s2, _)] if s2 as usize == s)
+                && self.deconv.reward(i) < 0.0
+        })
     }
 
     /// One Gauss–Seidel sweep of (M1) over every state, in state order.
@@ -98,6 +152,24 @@ impl Learner for DeconvModel {
 
     fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
         let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
+        if self.probes.rate > 0.0
+            && self
+                .deconv
+                .median_se()
+                .is_some_and(|se| se.steps > self.probes.precision && se.cdf > PROBE_CDF_PRECISION)
+        {
+            if !self.probe_due && rng.random::<f64>() < self.probes.rate {
+                self.probe_due = true;
+            }
+            if self.probe_due
+                && !explored
+                && let Some(probe) = self.probe_action(s)
+            {
+                self.probe_due = false;
+                self.probes_taken += 1;
+                return Decision { action: probe, model: None, explored: true };
+            }
+        }
         Decision { action, model: None, explored }
     }
 
@@ -130,6 +202,7 @@ impl Learner for DeconvModel {
     fn metrics(&self) -> Vec<(String, f64)> {
         let mut m = self.deconv.metrics();
         m.push(("learner/value_max".into(), max_of(&self.v)));
+        m.push(("learner/probes".into(), self.probes_taken as f64));
         m
     }
 
@@ -149,7 +222,7 @@ mod tests {
     #[test]
     fn value_iteration_on_counted_model_by_hand() {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
-        let mut l = DeconvModel::new(p, tiny_config(), 1, 2, 1);
+        let mut l = DeconvModel::new(p, tiny_config(), 1, Probes::OFF, 2, 1);
         let trace = [(0, 1, 2.0), (1, 0, 3.0), (0, 1, 3.0)];
         for (t, &(s, s2, r)) in trace.iter().enumerate() {
             l.observe(&exp(t as u64, s, 0, s2, r));
@@ -169,11 +242,51 @@ mod tests {
         assert!((l.q(0, 0) - 20.0 / 3.0).abs() < 1e-6 && (l.q(1, 0) - 16.0 / 3.0).abs() < 1e-6);
     }
 
+    /// State 0: action 0 bumps (stays, −1), action 1 moves to state 1 (0); state 1's one
+    /// action returns to 0 with +2; rewards arrive at once. After a refit with the delay
+    /// estimated, (0, 0) is a probe (tried, stays, R̂ < 0) and state 1 has none. With ε = 0
+    /// the greedy action in 0 is 1. At rate 1 a probe falls due at once; in state 1 it
+    /// waits (no probe there), and in state 0 it takes action 0 — while the median's SE is
+    /// above the precision; neither a precision above it nor rate 0 probes.
+    #[test]
+    fn probes_take_the_known_bump_while_the_delay_is_uncertain() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
+        let mut cfg = tiny_config();
+        (cfg.told, cfg.pmf_weighted) = (None, true);
+        let build = |probes| {
+            let mut l = DeconvModel::new(p, cfg.clone(), 1, probes, 2, 2);
+            let trace = [(0, 0, 0, -1.0), (0, 1, 1, 0.0), (1, 0, 0, 2.0)];
+            for t in 0..24 {
+                let (s, a, s2, r) = trace[t % 3];
+                l.observe(&exp(t as u64, s, a, s2, r));
+            }
+            l
+        };
+        let mut rng = mmq_core::seed::rng_from_seed(3);
+        let mut l = build(Probes { rate: 1.0, precision: 1e-9 });
+        let se = l.deconvolver().median_se().expect("the delay is estimated").steps;
+        assert!(l.deconvolver().reward(0) < 0.0 && se > 1e-9, "R̂ {}, SE {se}", l.deconvolver().reward(0));
+        assert_eq!((l.probe_action(0), l.probe_action(1)), (Some(0), None));
+        assert_eq!(l.greedy(0, &mut rng), 1);
+        let waits = l.act(1, &mut rng);
+        assert_eq!((waits.action, waits.explored, l.probe_due), (0, false, true));
+        let probe = l.act(0, &mut rng);
+        assert_eq!((probe.action, probe.explored, l.probe_due), (0, true, false));
+        assert_eq!(l.metrics().iter().find(|m| m.0 == "learner/probes").map(|m| m.1), Some(1.0));
+        for probes in
+            [Probes { rate: 1.0, precision: se * 2.0 }, Probes { rate: 0.0, precision: 1e-9 }, Probes::OFF]
+        {
+            let mut l = build(probes);
+            let d = l.act(0, &mut rng);
+            assert_eq!((d.action, d.explored), (1, false), "{probes:?}");
+        }
+    }
+
     /// A pair never tried keeps q0 (optimism) and the greedy action goes there.
     #[test]
     fn untried_pairs_stay_optimistic() {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 10.0 };
-        let mut l = DeconvModel::new(p, tiny_config(), 1, 2, 2);
+        let mut l = DeconvModel::new(p, tiny_config(), 1, Probes::OFF, 2, 2);
         l.observe(&exp(0, 0, 0, 1, 0.0));
         // Q(0,0) = R̂ 0 + ½ V(1) = ½·10; Q(0,1) untried = 10.
         assert_eq!((l.q(0, 0), l.q(0, 1)), (5.0, 10.0));

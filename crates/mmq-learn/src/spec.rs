@@ -109,7 +109,7 @@ pub fn catalogue() -> Vec<(LearnerKind, &'static str, &'static str)> {
         (
             LearnerKind::DeconvModel,
             "deconv-model",
-            "model-based: counted transitions + deconvolved R̂(s,a) with an online delay-pmf estimate, value iteration every step",
+            "model-based: counted transitions + deconvolved R̂(s,a) with an online delay-pmf estimate, value iteration every step, delay probes while the estimate is imprecise",
         ),
     ]
 }
@@ -291,6 +291,10 @@ impl LearnerSpec {
                 p,
                 crate::beyond::deconv_config(self)?,
                 self.beyond.optimism_visits,
+                crate::deconv_model::Probes {
+                    rate: self.beyond.probe_rate,
+                    precision: self.beyond.probe_precision,
+                },
                 num_states,
                 num_actions,
             )),
@@ -330,6 +334,13 @@ mod tests {
         s.beyond.pmf_smoothness = -1.0;
         assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("pmf_smoothness"));
         s.beyond.pmf_smoothness = 0.0;
+        s.beyond.probe_rate = 1.5;
+        let e = s.build(81, 4, 1 << 30).unwrap_err().to_string();
+        assert!(e.contains("probe_rate") && e.contains("[0, 1]"), "{e}");
+        s.beyond.probe_rate = 0.02;
+        s.beyond.probe_precision = 0.0;
+        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("probe_precision"));
+        s.beyond.probe_precision = 0.5;
         s.max_delay = 1_000_000_000;
         let e = s.build(81, 4, 8 << 30).unwrap_err().to_string();
         assert!(e.contains("--max-delay") && e.contains("GiB"), "{e}");
