@@ -185,7 +185,8 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
         md,
         "\n### Delay estimate against the truth\n\nMedian of the estimated pmf (interpolated; mean ± 95 % interval over seeds) at the end, \
          the worst seed's distance from the true median after {JUDGE_AT} steps, and for the mixture the estimated mass of each lobe \
-         (delays below and from {} steps; truth ≈ 0.5 / 0.5).\n\n| world | delay | ε | learner | true median | estimated median (end) | worst |error| at {JUDGE_AT} | lobes (low / high) |\n|---|---|---|---|---|---|---|---|",
+         (delays below and from {} steps; truth ≈ 0.5 / 0.5), and the delay probes `deconv-model` took per seed \
+         (docs/algorithms/deconv-model.md).\n\n| world | delay | ε | learner | true median | estimated median (end) | worst |error| at {JUDGE_AT} | lobes (low / high) | probes per seed |\n|---|---|---|---|---|---|---|---|---|",
         beyond::LOBE_SPLIT
     );
     for x in outs.iter().filter(|x| !x.median_curve.is_empty()) {
@@ -194,14 +195,15 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
         let end = x.median_curve.last().map(|c| c.1);
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {tmed:.2} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {tmed:.2} | {} | {} | {} | {} |",
             s.world,
             s.delay_label,
             s.epsilon,
             s.learner.name(),
             end.map_or("—".into(), |m| num(&m, 2)),
             x.median_error_max.map_or("—".into(), |e| format!("{e:.2}")),
-            x.lobes.map_or("—".into(), |l| format!("{:.2} / {:.2}", l.0.mean, l.1.mean))
+            x.lobes.map_or("—".into(), |l| format!("{:.2} / {:.2}", l.0.mean, l.1.mean)),
+            x.probes.map_or("—".into(), |p| format!("{:.0}", p.mean))
         );
     }
     let _ = writeln!(md, "\n### Figures\n");

@@ -244,6 +244,9 @@ pub struct Outcome {
     pub median_error_max: Option<f64>,
     /// Mass of p̂ at the end in the low and high lobe of the mixture (split at 12), mean.
     pub lobes: Option<(MeanCi, MeanCi)>,
+    /// Delay probes per seed (`deconv-model`: `learner/probes`).
+    #[serde(default)]
+    pub probes: Option<MeanCi>,
 }
 
 /// The true delay pmf over 0..=50 and its median and mean.
@@ -310,6 +313,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         (mean_ci(&lo), mean_ci(&hi))
     });
     let _ = true_pmf;
+    let probes: Option<Vec<f64>> = rs.iter().map(|r| metric(r, "learner/probes")).collect();
     Ok(Outcome {
         setting: setting.clone(),
         n: rs.len(),
@@ -324,20 +328,21 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         pmf,
         median_error_max,
         lobes,
+        probes: probes.filter(|p| !p.is_empty()).map(|p| mean_ci(&p)),
     })
 }
 
 /// One CSV row per setting.
 pub fn outcomes_csv(outs: &[Outcome]) -> String {
     let mut s = String::from(
-        "world,delay,epsilon,learner,told,n,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,greedy_min,greedy_optimal_seeds,median_est_final,median_est_final_ci95,median_error_max_at_50k,lobe_low,lobe_high,seconds_per_seed\n",
+        "world,delay,epsilon,learner,told,n,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,greedy_min,greedy_optimal_seeds,median_est_final,median_est_final_ci95,median_error_max_at_50k,lobe_low,lobe_high,seconds_per_seed,probes_per_seed\n",
     );
     for o in outs {
         let st = &o.setting;
         let last = o.median_curve.last().map(|x| x.1);
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             csv_field(&st.world),
             csv_field(&st.delay),
             st.epsilon,
@@ -357,7 +362,8 @@ pub fn outcomes_csv(outs: &[Outcome]) -> String {
             o.median_error_max.map_or(String::new(), |x| x.to_string()),
             o.lobes.map_or(String::new(), |l| l.0.mean.to_string()),
             o.lobes.map_or(String::new(), |l| l.1.mean.to_string()),
-            o.seconds.mean
+            o.seconds.mean,
+            o.probes.map_or(String::new(), |p| p.mean.to_string())
         );
     }
     s
@@ -433,6 +439,7 @@ mod tests {
             pmf: vec![1.0 / 51.0; 51],
             median_error_max: Some(0.5),
             lobes: None,
+            probes: None,
         };
         let fields = |line: &str| {
             let (mut n, mut quoted) = (1, false);
