@@ -186,7 +186,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
         "\n### Delay estimate against the truth\n\nMedian of the estimated pmf (interpolated; mean ± 95 % interval over seeds) at the end, \
          the worst seed's distance from the true median after {JUDGE_AT} steps, and for the mixture the estimated mass of each lobe \
          (delays below and from {} steps; truth ≈ 0.5 / 0.5), and the delay probes `deconv-model` took per seed \
-         (docs/algorithms/deconv-model.md).\n\n| world | delay | ε | learner | true median | estimated median (end) | worst |error| at {JUDGE_AT} | lobes (low / high) | probes per seed |\n|---|---|---|---|---|---|---|---|---|",
+         (docs/algorithms/deconv-model.md).\n\n| world | delay | ε | learner | true median | estimated median (end) | worst seed's error at {JUDGE_AT} (steps) | lobes (low / high) | probes per seed |\n|---|---|---|---|---|---|---|---|---|",
         beyond::LOBE_SPLIT
     );
     for x in outs.iter().filter(|x| !x.median_curve.is_empty()) {
