@@ -83,7 +83,7 @@ pub struct BeyondParams {
     /// while the median of the delay estimate has a standard error above
     /// `probe_precision`; a due probe is taken at the first non-exploring step in a state
     /// where some action is known to keep the agent where it is at a cost (tried ≥
-    /// `optimism_visits` times, never led elsewhere, R̂ < 0: a wall bump). Its reward
+    /// max(`optimism_visits`, 1) times, never led elsewhere, R̂ < 0: a wall bump). Its reward
     /// leaves at a random time and so samples the delay without the period of the goal's
     /// rewards (0: off; [`crate::deconv_model`]).
     pub probe_rate: f64,

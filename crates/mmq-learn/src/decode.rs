@@ -16,7 +16,7 @@
 //! into the counts n_v ≥ 0 with Σ_v n_v v = r and the fewest parts; one that does not
 //! decode goes whole to the value of largest magnitude. Each value v gets its own
 //! [`Deconvolver`] fed n_v·v every step, and all of them share one delay pmf
-//! ([`Deconvolver::refit_all`]): R̂ = Σ_v R̂_v. Until two values are found (and always
+//! (`Deconvolver::refit_all`): R̂ = Σ_v R̂_v. Until two values are found (and always
 //! with decoding off) a single deconvolver sees the summed deliveries, exactly as
 //! without this module. When the set of values changes, the per-value deconvolvers are
 //! rebuilt from the stored history.

@@ -240,7 +240,6 @@ pub fn joint_failure(inv: &nalgebra::DMatrix<f64>, active: &[usize], rp: &[f64],
         .map(|(a, _)| a)
 }
 
-/// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
 /// A least-squares system ½ pᵀAp − cᵀp of the pmf fit: (A, c).
 type System = (Vec<f64>, Vec<f64>);
 
@@ -263,6 +262,7 @@ pub(crate) fn next_refit_after(refit_every: u64, t: u64) -> u64 {
     t + refit_every.max(t / 8)
 }
 
+/// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
 pub fn project_simplex(v: &mut [f64]) {
     let mut u: Vec<f64> = v.to_vec();
     u.sort_by(|a, b| b.total_cmp(a));
@@ -1226,7 +1226,8 @@ pub(crate) mod tests {
     /// Two lags, A = diag(2, 2), ν = 0, p = (½, ½): the median is 0.5 (bin 1, none of
     /// it below 0.5, so e = (1, 0)); Var F = eᵀM⁻¹e − (eᵀM⁻¹1)² / 1ᵀM⁻¹1 = ½ − ¼ / 1 = ¼;
     /// f = mean of p over bins 0..=1 = ½; SE = ½ / ½ = 1. Four times the information
-    /// halves it; no mass near the median or a singular system: none.
+    /// halves it; a singular system: none. A median in a gap between two lobes: F's
+    /// error is ordinary, the median's huge.
     #[test]
     fn median_se_by_hand() {
         let p = [0.5, 0.5];
