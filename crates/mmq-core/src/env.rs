@@ -174,6 +174,11 @@ pub struct StepTrace {
     pub poses: Vec<PoseSample>,
     /// Contacts that started or stopped during the step.
     pub contacts: Vec<ContactSample>,
+    /// The robot's own pose estimate, sampled at the same times as `poses` (empty when
+    /// the environment controls on the true pose).
+    pub estimates: Vec<PoseSample>,
+    /// Absolute localisation fixes received during the step (each with its time).
+    pub fixes: Vec<PoseSample>,
 }
 
 /// An environment with discrete states and actions.
@@ -206,9 +211,21 @@ pub trait Env {
     fn take_trace(&mut self, out: &mut StepTrace) {
         out.poses.clear();
         out.contacts.clear();
+        out.estimates.clear();
+        out.fixes.clear();
     }
     /// The current pose in the world frame.
     fn pose(&self) -> PoseSample;
+    /// The environment's own estimate of its pose, where it controls on an estimate
+    /// (the realistic robot); `None` where it knows the true pose.
+    fn pose_estimate(&self) -> Option<PoseSample> {
+        None
+    }
+    /// The state the true pose is in, where the reported state is a belief that can
+    /// differ from it (the realistic robot); `None` where the state is the truth.
+    fn true_state(&self) -> Option<State> {
+        None
+    }
     /// Summary figures of the environment (robot: physics steps, contacts, ...).
     fn stats(&self) -> Vec<(String, f64)> {
         Vec::new()
