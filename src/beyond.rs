@@ -1,4 +1,4 @@
-//! `mmq paper --fig beyond`: runs issue 8's study (`mmq_lab::beyond`: every learner,
+//! `mmq paper --fig beyond`: runs the learner comparison (`mmq_lab::beyond`: every learner,
 //! two worlds, Poisson and non-Poisson delays, three ε), draws its figures and returns
 //! its section of `report.md` — relative performance, fraction of the optimum, greedy
 //! evaluation and the delay estimate against the truth, each with its 95 % interval.
@@ -17,6 +17,7 @@ use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
 
 use crate::{Failure, progress};
+use mmq_lab::format::{mean_num as num, mean_pct as pct};
 
 /// What the study adds to the report.
 #[derive(Debug, Default)]
@@ -25,14 +26,6 @@ pub struct Section {
     pub md: String,
     /// Files written (figures and CSV).
     pub files: Vec<PathBuf>,
-}
-
-fn pct(m: &MeanCi) -> String {
-    if m.mean.is_finite() { format!("{:.1} ± {:.1}", 100.0 * m.mean, 100.0 * m.ci95) } else { "—".into() }
-}
-
-fn num(m: &MeanCi, digits: usize) -> String {
-    if m.mean.is_finite() { format!("{:.*} ± {:.*}", digits, m.mean, digits, m.ci95) } else { "—".into() }
 }
 
 fn plot_err(e: mmq_plot::PlotError) -> Failure {
@@ -105,7 +98,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
     let md = &mut sec.md;
     let _ = writeln!(
         md,
-        "\n## Beyond the paper: learners that reach the undelayed limit (issue 8)\n\n\
+        "\n## Beyond the paper: learners that reach the undelayed limit\n\n\
          Every learner on the paper's 9×9 world and on the 15×15 maze, {} steps per setting; seeds per setting: \
          9×9 {} for the headline settings (Poisson λ = 13 and the non-Poisson delays at ε = 0.05 and 0.1) and {} for \
          the rest of the λ × ε grid and the told-pmf ablation; maze {} and {}; \
@@ -126,7 +119,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
     for (label, delay) in &headline_delays {
         let _ = writeln!(
             md,
-            "\n### 9×9, {label}\n\n| learner | ε | relative performance (%) | fraction of optimum (%) | greedy (reward/step) | worst seed | greedy optimal |\n|---|---|---|---|---|---|---|"
+            "\n### 9×9, {label}\n\n| learner | ε | relative performance | fraction of optimum | greedy (reward/step) | worst seed | greedy optimal |\n|---|---|---|---|---|---|---|"
         );
         for eps in beyond::OTHER_EPSILONS {
             for (k, told) in LEARNERS.iter().map(|&k| (k, false)).chain(DECONV.iter().map(|&k| (k, true))) {
@@ -147,7 +140,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
     }
     // Full grids: relative performance per world and ε, learners × delays.
     for world in beyond::WORLDS {
-        let _ = writeln!(md, "\n### {world}: relative performance (%) for every delay\n");
+        let _ = writeln!(md, "\n### {world}: relative performance for every delay\n");
         for eps in beyond::EPSILONS {
             let delays: Vec<(String, String)> = beyond::LAMBDAS
                 .iter()

@@ -10,9 +10,10 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[derive(Debug, Parser)]
 #[command(name = "mmq", version, about, propagate_version = true)]
 pub struct Cli {
-    /// Worker threads for seeds run in parallel (default: all cores). Results do not
-    /// depend on it.
-    #[arg(long, global = true)]
+    /// Worker threads for the seeds and jobs that `run`, `paper` and `sweep` run in
+    /// parallel (default: all cores; at most 256), given before the command:
+    /// `mmq --threads 2 sweep ...`. Results do not depend on it.
+    #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     #[command(subcommand)]
     pub command: Command,
@@ -63,16 +64,17 @@ impl EnvChoice {
 #[derive(Debug, Args)]
 pub struct PaperArgs {
     /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity), all, or beyond
-    /// (issue 8: every learner, two worlds, many delays; not part of all); comma-separated.
+    /// (the learner comparison: every learner, two worlds, many delays; not part of all);
+    /// comma-separated.
     #[arg(long, default_value = "all")]
     pub fig: String,
     /// Fidelity for Figs. 6–12: grid, robot or both.
     #[arg(long, value_enum, default_value = "grid")]
     pub env: EnvChoice,
-    /// Seeds per setting (default: 20 grid, 5 robot; quick: 4 grid, 2 robot).
+    /// Seeds per setting (default: 20 grid, 5 robot; quick: 6 grid, 2 robot).
     #[arg(long)]
     pub seeds: Option<u64>,
-    /// Steps per seed (default: 150,000; quick: 15,000 grid, 600 robot).
+    /// Steps per seed (default: 150,000; quick: 30,000 grid, 3,000 robot).
     #[arg(long)]
     pub steps: Option<u64>,
     /// First master seed.
@@ -101,8 +103,8 @@ pub enum EnvArg {
 /// Flags of `mmq run`.
 #[derive(Debug, Args)]
 pub struct RunArgs {
-    /// World file (TOML).
-    #[arg(long, default_value = "worlds/paper-9x9.toml")]
+    /// World: a shipped world's name (`mmq world list`) or a world file (TOML).
+    #[arg(long, default_value = "paper-9x9")]
     pub world: PathBuf,
     /// Environment fidelity.
     #[arg(long, value_enum, default_value = "grid")]
@@ -182,7 +184,9 @@ pub struct WorldArgs {
 /// What to do with world files.
 #[derive(Debug, Subcommand)]
 pub enum WorldAction {
-    /// Validate world files; one line per file.
+    /// List the shipped worlds (found by name from any folder: `--world paper-9x9`).
+    List,
+    /// Validate world files (or shipped worlds by name); one line per file.
     Check {
         /// World files.
         #[arg(required = true)]
@@ -190,7 +194,7 @@ pub enum WorldAction {
     },
     /// Show the map, the optimal policy as arrows and the optimal average reward.
     Show {
-        /// World file.
+        /// World file, or a shipped world's name.
         file: PathBuf,
     },
 }

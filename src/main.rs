@@ -74,21 +74,9 @@ fn main() -> ExitCode {
             }
         });
     }
-    if let Some(n) = args.threads {
-        let _ = rayon::ThreadPoolBuilder::new().num_threads(n.max(1)).build_global();
-    }
-    let result = match args.command {
-        cli::Command::Run(a) => run::run(a, &stop),
-        cli::Command::World(a) => world_cmd::world(a),
-        cli::Command::Paper(a) => paper::paper(a, &stop),
-        cli::Command::Sweep(a) => sweep::sweep(a, &stop),
-        cli::Command::Replay(a) => replay::replay(a),
-        cli::Command::Learners => {
-            for (_, name, desc) in mmq_learn::catalogue() {
-                println!("{name:<16} {desc}");
-            }
-            Ok(())
-        }
+    let result = match args.threads.map(set_threads).transpose() {
+        Err(f) => Err(f),
+        Ok(_) => dispatch(args.command, &stop),
     };
     match result {
         Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
@@ -96,6 +84,40 @@ fn main() -> ExitCode {
         Err(f) => {
             eprintln!("error: {:#}", f.error);
             ExitCode::from(f.code)
+        }
+    }
+}
+
+/// The largest `--threads` accepted: far more than any machine this runs on needs for
+/// seeds in parallel, and few enough that starting them cannot exhaust the process.
+const MAX_THREADS: usize = 256;
+
+/// Starts the worker pool with `n` threads: a bad count is bad input, a pool that cannot
+/// start (a memory or process limit) a runtime failure; neither panics.
+fn set_threads(n: usize) -> Result<(), Failure> {
+    if !(1..=MAX_THREADS).contains(&n) {
+        return Err(input_error(format!(
+            "--threads {n}: use a number of worker threads from 1 to {MAX_THREADS} (default: one per core)"
+        )));
+    }
+    rayon::ThreadPoolBuilder::new().num_threads(n).build_global().map_err(|e| Failure {
+        code: exit::RUNTIME,
+        error: anyhow::anyhow!("cannot start {n} worker threads ({e}); give fewer with --threads"),
+    })
+}
+
+fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
+    match command {
+        cli::Command::Run(a) => run::run(a, stop),
+        cli::Command::World(a) => world_cmd::world(a),
+        cli::Command::Paper(a) => paper::paper(a, stop),
+        cli::Command::Sweep(a) => sweep::sweep(a, stop),
+        cli::Command::Replay(a) => replay::replay(a),
+        cli::Command::Learners => {
+            for (_, name, desc) in mmq_learn::catalogue() {
+                println!("{name:<16} {desc}");
+            }
+            Ok(())
         }
     }
 }

@@ -4,7 +4,7 @@
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::EnvKind;
-use mmq_lab::output::{write_config, write_results};
+use mmq_lab::output::{OutKind, claim_out_dir, write_config, write_results};
 use mmq_lab::{Control, RunConfig, Summary, run_all};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 
@@ -50,6 +50,10 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
     let world = cfg.load_world()?;
+    let replaced = claim_out_dir(&a.out, OutKind::Run)?;
+    if replaced > 0 && !a.quiet {
+        eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
+    }
     write_config(&a.out, &cfg)?;
     let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
     let pb = progress::bar(total, cfg.learner.kind.name(), a.quiet);
@@ -74,23 +78,28 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
 
 /// A short human table of a summary.
 pub fn print_summary(s: &Summary) {
+    use mmq_lab::format;
+    let ceiling = s.ceiling_per_step.map_or(String::new(), |c| format!(", ε-soft ceiling {c:.4}/step"));
     println!(
-        "{} on {} (optimum {:.4}/step), delay {}, {} steps × {} seeds",
+        "{} on {} (optimum {:.4}/step{ceiling}), delay {}, {} steps × {} seeds",
         s.learner, s.world, s.optimum_per_step, s.config.delay, s.config.steps, s.config.seeds
     );
     for (key, label, pct) in [
         ("perf/relative", "relative performance vs undelayed Q", true),
+        ("perf/fraction_of_ceiling", "fraction of the ε-soft ceiling", true),
         ("perf/fraction_of_optimum", "fraction of the exact optimum", true),
+        ("perf/regret", "regret against the optimum (reward)", false),
         ("reward/earned_per_step", "earned reward per step", false),
         ("eval/greedy_per_step", "greedy evaluation, reward per step", false),
         ("baseline/earned_per_step", "undelayed Q-learning, reward per step", false),
     ] {
         if let Some(m) = s.get(key) {
-            if pct {
-                println!("  {label:<40} {:>7.1} % ± {:.1}", 100.0 * m.mean, 100.0 * m.ci95);
-            } else {
-                println!("  {label:<40} {:>7.4}   ± {:.4}", m.mean, m.ci95);
-            }
+            let text = if key == "perf/regret" { format::mean_num(&m, 1) } else { format::mean(&m, pct) };
+            println!("  {label:<40} {text:>18}");
         }
     }
+    for note in &s.notes {
+        println!("  note: {note}");
+    }
+    println!("  (horizon: {} steps; relative performance depends on it)", s.config.steps);
 }

@@ -1,4 +1,4 @@
-//! `mmq world check|show`.
+//! `mmq world list|check|show`.
 
 use mmq_core::{Move, World, optimum};
 use mmq_lab::runner::robot_env;
@@ -9,6 +9,20 @@ use crate::cli::{WorldAction, WorldArgs};
 /// Runs `mmq world`.
 pub fn world(args: WorldArgs) -> Result<(), Failure> {
     match args.action {
+        WorldAction::List => {
+            println!("shipped worlds (use the name as --world, or copy the file to change it):");
+            for (name, text) in mmq_core::shipped::WORLDS {
+                let w = World::parse(text, name)?;
+                println!(
+                    "  {name:<14} {}×{:<3} optimum {:.4}/step  {}",
+                    w.width,
+                    w.height,
+                    optimum(&w).gain,
+                    w.description
+                );
+            }
+            Ok(())
+        }
         WorldAction::Check { files } => {
             let mut bad = 0;
             let total = files.len();

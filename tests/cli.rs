@@ -167,3 +167,170 @@ mod world {
         assert!(names.starts_with(&["q", "fixed", "mmq"]), "{names:?}");
     }
 }
+
+mod honest_numbers {
+    use super::*;
+
+    /// A 1×40 corridor, S at one end and G at the other: in 300 steps undelayed
+    /// Q-learning bumps far more often than it reaches G, so its cumulative reward is
+    /// negative and a ratio to it would mean nothing.
+    const CORRIDOR: &str =
+        "name = \"corridor\"\nstart = \"respawn\"\nmap = \"G.......................................S\"\n";
+
+    #[test]
+    fn relative_is_absent_where_the_baseline_earns_nothing() {
+        let d = tempfile::tempdir().unwrap();
+        let world = d.path().join("corridor.toml");
+        std::fs::write(&world, CORRIDOR).unwrap();
+        let out = d.path().join("out");
+        let o = mmq(&[
+            "run",
+            "--world",
+            &world.to_string_lossy(),
+            "--learner",
+            "q",
+            "--delay",
+            "poisson:3",
+            "--q0",
+            "0",
+            "--steps",
+            "300",
+            "--seeds",
+            "2",
+            "--window",
+            "100",
+            "--out",
+            &out.to_string_lossy(),
+        ]);
+        let (stdout, stderr) = text(&o);
+        assert!(o.status.success(), "{stderr}");
+        let s = read_json(&out.join("summary.json"));
+        // The premise: the undelayed baseline earned ≤ 0 in every seed.
+        for seed in s["seeds"].as_array().unwrap() {
+            assert!(seed["baseline/earned_per_step"].as_f64().unwrap() <= 0.0, "{seed}");
+            assert!(seed.get("perf/relative").is_none(), "{seed}");
+            assert!(seed["seed"].is_u64() && seed["complete"].is_boolean(), "{seed}");
+            assert!(seed["perf/regret"].as_f64().unwrap() > 0.0);
+            assert!(seed["perf/fraction_of_ceiling"].as_f64().is_some());
+        }
+        assert!(s["mean"].get("perf/relative").is_none());
+        let notes = s["notes"].as_array().unwrap();
+        assert!(notes.iter().any(|n| n.as_str().unwrap().contains("perf/relative is absent")), "{notes:?}");
+        assert!(!stdout.contains("relative performance vs"), "{stdout}");
+        assert!(stdout.contains("note: perf/relative is absent"), "{stdout}");
+        assert!(stdout.contains("regret against the optimum"), "{stdout}");
+        // metrics.csv leaves the column empty.
+        let csv = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+        assert!(csv.lines().skip(1).all(|l| l.ends_with(',')), "{csv}");
+    }
+
+    /// Regret and the fraction of the ε-soft ceiling agree with the earned reward, and
+    /// one seed has no interval.
+    #[test]
+    fn regret_and_ceiling_are_reported() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().to_string_lossy().into_owned();
+        let o = mmq(&["run", "--world", "paper-5x5", "--epsilon", "0.05", "--steps", "3000", "--out", &out]);
+        let (stdout, stderr) = text(&o);
+        assert!(o.status.success(), "{stderr}");
+        let s = read_json(&d.path().join("summary.json"));
+        let seed = &s["seeds"][0];
+        let (opt, earned) =
+            (s["optimum_per_step"].as_f64().unwrap(), seed["reward/earned_total"].as_f64().unwrap());
+        let regret = seed["perf/regret"].as_f64().unwrap();
+        assert!((regret - (opt * 3000.0 - earned)).abs() < 1e-9, "{regret}");
+        let ceiling = s["ceiling_per_step"].as_f64().unwrap();
+        assert!(ceiling > 0.0 && ceiling < opt, "{ceiling} vs {opt}");
+        let frac = seed["perf/fraction_of_ceiling"].as_f64().unwrap();
+        assert!((frac - earned / 3000.0 / ceiling).abs() < 1e-12);
+        assert!(stdout.contains("± n/a"), "one seed has no interval: {stdout}");
+        assert!(stdout.contains("fraction of the ε-soft ceiling"), "{stdout}");
+    }
+}
+
+mod anywhere {
+    use super::*;
+
+    /// Shipped worlds are found by name, and the paper runs, from a folder that holds no
+    /// `worlds/`.
+    #[test]
+    fn shipped_worlds_work_from_any_folder() {
+        let d = tempfile::tempdir().unwrap();
+        let o = mmq_in(d.path(), &["run", "--world", "paper-3x3", "--steps", "500", "-q", "--out", "r"]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        assert!(d.path().join("r/summary.json").is_file());
+        let o = mmq_in(
+            d.path(),
+            &["paper", "--quick", "--fig", "2", "--seeds", "1", "--steps", "300", "-q", "--out", "p"],
+        );
+        assert!(o.status.success(), "{:?}", text(&o));
+        assert!(d.path().join("p/report.md").is_file());
+        let (out, _) = text(&mmq_in(d.path(), &["world", "list"]));
+        for name in ["paper-3x3", "paper-9x9", "maze-15x15"] {
+            assert!(out.contains(name), "{out}");
+        }
+        let o = mmq_in(d.path(), &["run", "--world", "no-such-world", "-q", "--out", "x"]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(3), "{err}");
+        assert!(err.contains("paper-9x9"), "the error lists the shipped worlds: {err}");
+    }
+
+    /// With stderr in a file (not a terminal), a run logs plain progress lines with a rate.
+    #[test]
+    fn progress_lines_when_stderr_is_not_a_terminal() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().to_string_lossy().into_owned();
+        let o = mmq(&["run", "--world", "paper-3x3", "--steps", "2000", "--out", &out]);
+        let (_, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        // 2000 learning steps and as many of the undelayed baseline.
+        assert!(err.lines().any(|l| l.contains("4000 of 4000 steps") && l.contains("steps/s")), "{err}");
+        let o = mmq(&["run", "--world", "paper-3x3", "--steps", "2000", "-q", "--out", &out]);
+        assert!(text(&o).1.is_empty(), "-q prints no progress");
+    }
+
+    /// A second run into the same folder replaces the first run's files (no stale
+    /// tables or recordings are left beside the new summary); a folder holding files of
+    /// its own is refused untouched.
+    #[test]
+    fn output_folders_hold_one_run() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("r");
+        let o = |seeds: &str| {
+            mmq(&[
+                "run",
+                "--world",
+                "paper-3x3",
+                "--steps",
+                "500",
+                "--seeds",
+                seeds,
+                "-q",
+                "--out",
+                &out.to_string_lossy(),
+            ])
+        };
+        assert!(o("3").status.success());
+        assert!(out.join("q_seed2.npy").is_file());
+        assert!(o("1").status.success());
+        assert!(out.join("q_seed0.npy").is_file());
+        assert!(!out.join("q_seed2.npy").exists(), "a stale table from the first run is left");
+        std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        let r = o("1");
+        let (_, err) = text(&r);
+        assert_eq!(r.status.code(), Some(3), "{err}");
+        assert!(err.contains("notes.txt") && err.contains("--out"), "{err}");
+        assert!(out.join("notes.txt").is_file() && out.join("summary.json").is_file());
+    }
+
+    /// `--threads` outside 1..=256 is bad input, not a panic.
+    #[test]
+    fn thread_count_is_bounded() {
+        for n in ["0", "300"] {
+            let o = mmq(&["--threads", n, "learners"]);
+            let (_, err) = text(&o);
+            assert_eq!(o.status.code(), Some(3), "{n}: {err}");
+            assert!(err.contains("--threads") && err.contains("256"), "{err}");
+        }
+    }
+}

@@ -12,9 +12,14 @@ fn csv(path: &std::path::Path) -> Vec<HashMap<String, String>> {
     lines.map(|l| head.iter().cloned().zip(l.split(',').map(str::to_string)).collect()).collect()
 }
 
+/// A mean and its interval as the report prints them: "99.3 ± 3.2 %", Unicode minus.
 fn pct(mean: &str, ci: &str) -> String {
     let (m, c): (f64, f64) = (mean.parse().unwrap(), ci.parse().unwrap());
-    format!("{:.1} % ± {:.1}", 100.0 * m, 100.0 * c)
+    let signed = |x: f64| {
+        let s = format!("{x:.1}");
+        if s == "-0.0" { "0.0".to_string() } else { s.replacen('-', "−", 1) }
+    };
+    format!("{} ± {} %", signed(100.0 * m), signed(100.0 * c))
 }
 
 #[test]
@@ -84,5 +89,14 @@ fn quick_paper_report_is_complete_and_consistent() {
     assert!(report.contains(&format!("| i = −10 | ≈ 0 | ≈ 0 | {first} |")), "fig 4 i = −10");
     // The headline lists the grid and the robot side by side.
     let head = report.lines().find(|l| l.starts_with("| MMQ relative performance")).unwrap();
-    assert_eq!(head.matches(" % ± ").count(), 2, "{head}");
+    let cells: Vec<&str> = head.split('|').map(str::trim).filter(|c| !c.is_empty()).collect();
+    assert_eq!(cells.len(), 5, "{head}");
+    // The grid's is a number; the robot's too, unless a quick-budget baseline earned
+    // nothing, and then it is absent and the report says why.
+    assert!(cells[3].contains(" ± ") && cells[3].ends_with(" %"), "{head}");
+    assert!((cells[4].contains(" ± ") && cells[4].ends_with(" %")) || cells[4] == "—", "{head}");
+    assert!(report.contains("Relative performance is absent where the undelayed baseline earned ≤ 0"));
+    // Every figure says where it differs from the paper, and the horizon is shown.
+    assert!(report.matches("**Where we differ from the paper:**").count() >= 6, "{report}");
+    assert!(linked.contains(&"horizon.png".to_string()) && linked.contains(&"fig6-delay.png".to_string()));
 }

@@ -20,6 +20,16 @@ pub fn mmq(args: &[&str]) -> Output {
         .expect("the mmq binary runs")
 }
 
+/// Runs `mmq ARGS` in `dir` (to check that nothing depends on the repository root).
+pub fn mmq_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mmq"))
+        .args(args)
+        .current_dir(dir)
+        .env("RUST_BACKTRACE", "1")
+        .output()
+        .expect("the mmq binary runs")
+}
+
 /// (stdout, stderr) as text.
 pub fn text(o: &Output) -> (String, String) {
     (String::from_utf8_lossy(&o.stdout).into_owned(), String::from_utf8_lossy(&o.stderr).into_owned())

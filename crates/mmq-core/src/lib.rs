@@ -5,15 +5,18 @@
 //! Architecture invariant: this crate knows no learner, no physics engine, no log format
 //! and no plotting library.
 
+pub mod ceiling;
 pub mod channel;
 pub mod delay;
 pub mod env;
 pub mod observer;
 pub mod optimum;
 pub mod seed;
+pub mod shipped;
 pub mod stats;
 pub mod world;
 
+pub use ceiling::{Ceiling, epsilon_soft_ceiling};
 pub use channel::{DelayedReward, DelayedStep, Emission, Ledger};
 pub use delay::{DelayDist, DelayError, DelaySampler};
 pub use env::{Action, ContactSample, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace};

@@ -155,7 +155,9 @@ pub struct World {
 }
 
 impl World {
-    /// Reads and validates a world file.
+    /// Reads and validates a world file. A bare name (`paper-9x9`), or a path that does
+    /// not exist whose stem is a shipped world's name, gives the shipped world
+    /// ([`crate::shipped`]).
     pub fn load(path: impl AsRef<Path>) -> Result<World, WorldError> {
         let path = path.as_ref();
         let file = path.display().to_string();
@@ -165,10 +167,31 @@ impl World {
         };
         // Read at most MAX_FILE_BYTES (+1 to notice more): `--world /dev/zero`, a FIFO
         // or a huge file must not take all memory.
+        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+        let shipped = || {
+            let by_name = path.extension().is_none() && path.components().count() == 1;
+            (by_name || !path.exists())
+                .then(|| stem.as_deref().and_then(crate::shipped::world_text))
+                .flatten()
+        };
+        if let Some(text) = shipped() {
+            let mut w = Self::parse_named(text, &file, stem.as_deref())?;
+            w.path = None;
+            return Ok(w);
+        }
         let mut text = String::new();
         std::fs::File::open(path)
             .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_string(&mut text))
-            .map_err(cannot)?;
+            .map_err(|e| match e.kind() {
+                std::io::ErrorKind::NotFound => WorldError {
+                    file: file.clone(),
+                    message: format!(
+                        "no such world file, and no shipped world of that name; give a path to a world file or one of: {}",
+                        crate::shipped::world_names()
+                    ),
+                },
+                _ => cannot(e),
+            })?;
         if text.len() as u64 > MAX_FILE_BYTES {
             return Err(WorldError {
                 file,
@@ -178,7 +201,6 @@ impl World {
                 ),
             });
         }
-        let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         let mut w = Self::parse_named(&text, &file, stem.as_deref())?;
         w.path = Some(path.to_path_buf());
         Ok(w)

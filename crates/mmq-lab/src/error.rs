@@ -8,8 +8,8 @@ pub enum LabError {
     /// A world file that cannot be used.
     #[error(transparent)]
     World(#[from] mmq_core::WorldError),
-    /// An impossible delay spec.
-    #[error("--delay: {0}")]
+    /// An impossible delay spec (its message names the spec and what is accepted).
+    #[error(transparent)]
     Delay(#[from] mmq_core::DelayError),
     /// An impossible learner parameter or tables too large.
     #[error(transparent)]
@@ -57,6 +57,16 @@ pub enum LabError {
     /// The environment could not be built.
     #[error("{0}")]
     EnvBuild(String),
+    /// An output folder that holds files this program did not write.
+    #[error(
+        "{path}: the output folder holds {example}, which mmq did not write; choose an empty or new folder for --out"
+    )]
+    OutDirInUse {
+        /// The folder.
+        path: PathBuf,
+        /// One of the foreign files.
+        example: String,
+    },
     /// Writing an output failed.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -78,6 +88,7 @@ impl LabError {
                 | LabError::InvalidParam { .. }
                 | LabError::Config { .. }
                 | LabError::Spec { .. }
+                | LabError::OutDirInUse { .. }
                 | LabError::EnvBuild(_)
         )
     }

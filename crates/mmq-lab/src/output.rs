@@ -1,6 +1,7 @@
 //! Run outputs, each written atomically (temp file + rename, so a kill at any instant
-//! leaves the old file or the new one): `config.toml` before the run, then
-//! `summary.json`, `metrics.csv`, `policy.csv` and the Q-tables as `.npy`.
+//! leaves the old file or the new one, and a failed write leaves no temporary file):
+//! `config.toml` before the run, then `metrics.csv`, `policy.csv`, the Q-tables as `.npy`
+//! and, last, `summary.json`, so that a summary saying "complete" speaks for every output.
 
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -22,11 +23,71 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
     }
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-    let mut f = std::fs::File::create(&tmp).map_err(io)?;
-    f.write_all(bytes).map_err(io)?;
-    f.sync_all().map_err(io)?;
-    drop(f);
-    std::fs::rename(&tmp, path).map_err(io)
+    let written = std::fs::File::create(&tmp).and_then(|mut f| {
+        f.write_all(bytes)?;
+        f.sync_all()
+    });
+    match written.and_then(|()| std::fs::rename(&tmp, path)) {
+        Ok(()) => Ok(()),
+        Err(e) => {
+            // A failed write leaves nothing behind: no half-written temporary file.
+            let _ = std::fs::remove_file(&tmp);
+            Err(io(e))
+        }
+    }
+}
+
+/// What kind of output a folder holds, for [`claim_out_dir`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutKind {
+    /// `mmq run`: config, summary, metrics, policy, tables, recordings.
+    Run,
+    /// `mmq paper`: a report with figures and CSVs.
+    Report,
+}
+
+impl OutKind {
+    /// Whether `name` is a file this kind of output writes (or a temporary file of one).
+    fn owns(self, name: &str) -> bool {
+        let ext = name.rsplit_once('.').map_or("", |(_, e)| e);
+        if name.starts_with('.') && name.contains(".tmp") {
+            return true;
+        }
+        match self {
+            OutKind::Run => {
+                matches!(name, "config.toml" | "summary.json" | "metrics.csv" | "policy.csv")
+                    || (name.contains("_seed") && ext == "npy")
+                    || (name.starts_with("trajectory-seed") && ext == "mcap")
+            }
+            OutKind::Report => name == "report.md" || matches!(ext, "svg" | "png" | "csv"),
+        }
+    }
+}
+
+/// Makes `dir` ready for a new output of `kind`: creates it, or, when it holds a previous
+/// output of the same kind, removes that output's files, so that no file of an earlier
+/// run is left beside the new one. A folder holding any other file is refused
+/// ([`LabError::OutDirInUse`]) and left untouched. Returns how many files were removed.
+pub fn claim_out_dir(dir: &Path, kind: OutKind) -> Result<usize, LabError> {
+    let io = |source| LabError::Io { path: dir.to_path_buf(), source };
+    std::fs::create_dir_all(dir).map_err(io)?;
+    let mut ours = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(io)? {
+        let entry = entry.map_err(io)?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let is_file = entry.file_type().map_err(io)?.is_file();
+        if !is_file || !kind.owns(&name) {
+            return Err(LabError::OutDirInUse {
+                path: dir.to_path_buf(),
+                example: if is_file { name } else { format!("{name}/") },
+            });
+        }
+        ours.push(entry.path());
+    }
+    for p in &ours {
+        std::fs::remove_file(p).map_err(|source| LabError::Io { path: p.clone(), source })?;
+    }
+    Ok(ours.len())
 }
 
 /// Saves the resolved configuration (before the run starts).
@@ -136,7 +197,7 @@ pub fn write_results(
     complete: bool,
 ) -> Result<(Summary, Vec<PathBuf>), LabError> {
     let summary = Summary::new(cfg, world, results, complete);
-    let mut files = vec![write_summary(dir, &summary)?];
+    let mut files = Vec::new();
     let p = dir.join("metrics.csv");
     write_atomic(&p, metrics_csv(results).as_bytes())?;
     files.push(p);
@@ -150,6 +211,8 @@ pub fn write_results(
             files.push(p);
         }
     }
+    // The summary last: once it says "complete", every other output is in place.
+    files.push(write_summary(dir, &summary)?);
     Ok((summary, files))
 }
 
@@ -167,6 +230,30 @@ mod tests {
         assert!(header.contains("'shape': (2, 3)") && header.ends_with('\n'));
         assert_eq!(b.len(), 10 + hlen + 48);
         assert_eq!(f64::from_le_bytes(b[b.len() - 8..].try_into().unwrap()), 5.5);
+    }
+
+    #[test]
+    fn a_previous_run_is_replaced_and_foreign_files_are_kept() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("run");
+        assert_eq!(claim_out_dir(&out, OutKind::Run).unwrap(), 0);
+        for f in ["config.toml", "summary.json", "q_seed7.npy", "trajectory-seed7.mcap", ".x.tmp12"] {
+            std::fs::write(out.join(f), "old").unwrap();
+        }
+        assert_eq!(claim_out_dir(&out, OutKind::Run).unwrap(), 5);
+        assert_eq!(std::fs::read_dir(&out).unwrap().count(), 0);
+        std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        std::fs::write(out.join("summary.json"), "old").unwrap();
+        let e = claim_out_dir(&out, OutKind::Run).unwrap_err();
+        assert!(e.to_string().contains("notes.txt"), "{e}");
+        assert!(out.join("summary.json").is_file(), "nothing is removed when the folder is refused");
+        // A report folder is not a run folder.
+        let rep = d.path().join("rep");
+        std::fs::create_dir_all(&rep).unwrap();
+        std::fs::write(rep.join("fig2.png"), "old").unwrap();
+        assert_eq!(claim_out_dir(&rep, OutKind::Report).unwrap(), 1);
+        std::fs::write(rep.join("q_seed0.npy"), "old").unwrap();
+        assert!(claim_out_dir(&rep, OutKind::Report).is_err());
     }
 
     #[test]

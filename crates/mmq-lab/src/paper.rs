@@ -86,9 +86,28 @@ pub struct Group {
 }
 
 impl Group {
-    /// Per-seed relative performance at the end.
+    /// Per-seed relative performance at the end; absent (a NaN mean) unless every seed
+    /// has one: where a baseline earned ≤ 0, a mean over the other seeds would mislead.
     pub fn relative(&self) -> MeanCi {
-        mean_ci(&self.results.iter().filter_map(SeedResult::relative).collect::<Vec<_>>())
+        let xs: Vec<f64> = self.results.iter().filter_map(SeedResult::relative).collect();
+        if xs.len() < self.results.len() {
+            return mean_ci(&[]);
+        }
+        mean_ci(&xs)
+    }
+    /// Fraction of the ε-soft ceiling during learning.
+    pub fn fraction_of_ceiling(&self, ceiling: f64) -> MeanCi {
+        self.fraction(ceiling)
+    }
+    /// Regret against the exact optimum: optimum × steps − earned reward, per seed.
+    pub fn regret(&self, optimum: f64) -> MeanCi {
+        mean_ci(
+            &self
+                .results
+                .iter()
+                .map(|r| optimum * r.run.steps_done as f64 - r.run.earned_total)
+                .collect::<Vec<_>>(),
+        )
     }
     /// Fraction of the exact optimum during learning.
     pub fn fraction(&self, optimum: f64) -> MeanCi {
@@ -245,6 +264,19 @@ pub fn fig6_configs(o: &PaperOptions) -> Vec<RunConfig> {
         .collect()
 }
 
+/// How many times Fig. 6's horizon the horizon study runs.
+pub const HORIZON_FACTOR: u64 = 4;
+
+/// The horizon study: Fig. 6's MMQ run (grid) for [`HORIZON_FACTOR`] × its steps, so
+/// that relative performance can be read at every horizon up to that.
+pub fn horizon_configs(o: &PaperOptions) -> Vec<RunConfig> {
+    let mut c = o.cfg("paper-9x9", EnvKind::Grid, LearnerKind::Mmq, EXPLORE_FIG_6, "poisson:13");
+    c.save_tables = false;
+    c.steps = o.steps.saturating_mul(HORIZON_FACTOR);
+    c.window = o.window.saturating_mul(HORIZON_FACTOR);
+    vec![c]
+}
+
 /// Sensitivity of Fig. 6 to the unstated ε and q0 (grid): three settings × {MMQ, Q}.
 pub fn sensitivity_configs(o: &PaperOptions) -> Vec<RunConfig> {
     let mut v = Vec::new();
@@ -283,4 +315,50 @@ pub fn write_csv(dir: &Path, name: &str, text: &str) -> Result<PathBuf, LabError
     let p = dir.join(name);
     crate::output::write_atomic(&p, text.as_bytes())?;
     Ok(p)
+}
+
+/// One decision step as the reward-timing figure shows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepRewards {
+    /// Decision step t.
+    pub t: u64,
+    /// Reward the environment emitted at t.
+    pub earned: f64,
+    /// Reward the channel delivered at t.
+    pub received: f64,
+}
+
+/// Keeps the last `keep` steps' rewards of a run.
+#[derive(Debug)]
+struct LastSteps {
+    keep: usize,
+    out: std::sync::Arc<std::sync::Mutex<std::collections::VecDeque<StepRewards>>>,
+}
+
+impl mmq_core::Observer for LastSteps {
+    fn on_step(&mut self, rec: &mmq_core::StepRecord<'_>) {
+        let mut q = self.out.lock().unwrap_or_else(|p| p.into_inner());
+        if q.len() == self.keep {
+            q.pop_front();
+        }
+        q.push_back(StepRewards { t: rec.t, earned: rec.emitted, received: rec.delivered });
+    }
+}
+
+/// The per-step earned and received rewards of the last `keep` steps of `cfg`'s run with
+/// `seed` (the same run, bit for bit, as that seed's in a group): where the delay shows.
+pub fn last_steps(
+    cfg: &RunConfig,
+    seed: u64,
+    keep: usize,
+    ctl: Control<'_>,
+) -> Result<Vec<StepRewards>, LabError> {
+    let world = cfg.load_world()?;
+    let dist = cfg.validate()?;
+    let out = std::sync::Arc::new(std::sync::Mutex::new(std::collections::VecDeque::with_capacity(keep)));
+    let observer = LastSteps { keep, out: out.clone() };
+    let cfg = RunConfig { baseline: false, ..cfg.clone() };
+    run_seed(&cfg, &world, &dist, seed, Some(Box::new(observer)), ctl, memory_limit(1))?;
+    let q = out.lock().unwrap_or_else(|p| p.into_inner());
+    Ok(q.iter().copied().collect())
 }

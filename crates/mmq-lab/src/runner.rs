@@ -108,10 +108,11 @@ pub struct SeedResult {
 
 impl SeedResult {
     /// Relative performance (eq. 3 without its stray 1/t): cumulative earned reward under
-    /// delay ÷ that of the undelayed baseline.
+    /// delay ÷ that of the undelayed baseline. Absent without a baseline, and where the
+    /// baseline's cumulative earned reward is ≤ 0: a ratio to it has no meaning then.
     pub fn relative(&self) -> Option<f64> {
         let b = self.baseline.as_ref()?;
-        Some(self.run.earned_total / b.earned_total)
+        (b.earned_total > 0.0).then(|| self.run.earned_total / b.earned_total)
     }
 
     /// Earned reward per step.

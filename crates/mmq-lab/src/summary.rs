@@ -24,14 +24,51 @@ pub struct Summary {
     pub world: String,
     /// Exact optimal average reward per step of the world.
     pub optimum_per_step: f64,
+    /// The ε-soft ceiling: the best average reward per step of any policy that explores
+    /// with the run's ε as the learners do (absent where the actions are not the four
+    /// moves, e.g. the robot's `heading` action set).
+    #[serde(default)]
+    pub ceiling_per_step: Option<f64>,
     /// Metrics of every seed.
-    pub seeds: Vec<BTreeMap<String, f64>>,
+    pub seeds: Vec<SeedEntry>,
     /// Mean and 95 % interval over seeds of every metric (complete seeds only).
     pub mean: BTreeMap<String, MeanCi>,
+    /// Why a metric is absent from `mean` (e.g. relative performance when the undelayed
+    /// baseline earned nothing).
+    #[serde(default)]
+    pub notes: Vec<String>,
 }
 
-/// The per-seed metrics under their stable names.
-pub fn seed_metrics(r: &SeedResult, optimum: f64) -> BTreeMap<String, f64> {
+/// One seed's metrics in `summary.json`: the seed as an integer, whether it finished,
+/// and every metric under its stable name.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SeedEntry {
+    /// The master seed.
+    pub seed: u64,
+    /// Whether every step of this seed ran.
+    pub complete: bool,
+    /// The metrics (absent keys: not measured, or without meaning for this seed).
+    #[serde(flatten)]
+    pub metrics: BTreeMap<String, f64>,
+}
+
+/// Why relative performance is absent for one seed.
+pub const RELATIVE_ABSENT: &str = "relative performance is absent where the undelayed baseline's cumulative earned reward is ≤ 0 (a ratio to it has no meaning); see perf/regret and perf/fraction_of_ceiling";
+
+/// The ε-soft ceiling of a run's setting, when its actions are the world's four moves.
+pub fn ceiling_per_step(cfg: &RunConfig, world: &World) -> Option<f64> {
+    let moves = match cfg.env {
+        crate::config::EnvKind::Grid => true,
+        crate::config::EnvKind::Robot => {
+            mmq_robot::RobotConfig::from_world(world).is_ok_and(|c| c.actions == mmq_robot::ActionSet::Moves)
+        }
+    };
+    moves.then(|| mmq_core::epsilon_soft_ceiling(world, cfg.learner.params.epsilon).gain)
+}
+
+/// The per-seed metrics under their stable names: `optimum` is the world's optimal
+/// reward per step, `ceiling` its ε-soft ceiling (if known).
+pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTreeMap<String, f64> {
     let mut m = BTreeMap::new();
     let steps = r.run.steps_done.max(1) as f64;
     m.insert("seed".into(), r.seed as f64);
@@ -42,13 +79,19 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64) -> BTreeMap<String, f64> {
     m.insert("reward/earned_per_step".into(), r.run.earned_total / steps);
     m.insert("reward/received_per_step".into(), r.run.received_total / steps);
     m.insert("perf/fraction_of_optimum".into(), r.run.earned_total / steps / optimum);
+    m.insert("perf/regret".into(), optimum * r.run.steps_done as f64 - r.run.earned_total);
+    if let Some(c) = ceiling {
+        m.insert("perf/fraction_of_ceiling".into(), r.run.earned_total / steps / c);
+    }
     m.insert("eval/greedy_per_step".into(), r.greedy_per_step);
     m.insert("eval/greedy_fraction_of_optimum".into(), r.greedy_per_step / optimum);
     for (k, v) in ["moved", "wall", "goal", "timeout"].iter().zip(r.run.events) {
         m.insert(format!("events/{k}"), v as f64);
     }
+    if let Some(rel) = r.relative() {
+        m.insert("perf/relative".into(), rel);
+    }
     if let Some(b) = &r.baseline {
-        m.insert("perf/relative".into(), r.run.earned_total / b.earned_total);
         m.insert("baseline/earned_per_step".into(), b.earned_total / b.steps_done.max(1) as f64);
         m.insert(
             "baseline/fraction_of_optimum".into(),
@@ -70,33 +113,63 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64) -> BTreeMap<String, f64> {
     m
 }
 
+/// Mean and 95 % interval of every metric `keep` accepts over finished seeds' metrics
+/// (non-finite values left out). Relative performance is summarised only when every seed
+/// has it (a mean over the seeds that happen to have one would mislead); otherwise the
+/// returned notes say why it is absent.
+pub fn aggregate(
+    seeds: &[&BTreeMap<String, f64>],
+    keep: impl Fn(&str) -> bool,
+) -> (BTreeMap<String, MeanCi>, Vec<String>) {
+    const RELATIVE: &str = "perf/relative";
+    let count = |key: &str| seeds.iter().filter(|m| m.contains_key(key)).count();
+    let mut notes = Vec::new();
+    let relative_whole = count(RELATIVE) == seeds.len();
+    if count("baseline/earned_per_step") > 0 && !relative_whole {
+        notes.push(format!(
+            "{RELATIVE} is absent: {} of {} seeds have none ({RELATIVE_ABSENT})",
+            seeds.len() - count(RELATIVE),
+            seeds.len()
+        ));
+    }
+    let keys: std::collections::BTreeSet<&String> = seeds.iter().flat_map(|m| m.keys()).collect();
+    let mut mean = BTreeMap::new();
+    for k in keys.into_iter().filter(|k| keep(k) && (k.as_str() != RELATIVE || relative_whole)) {
+        let xs: Vec<f64> = seeds.iter().filter_map(|m| m.get(k).copied()).filter(|x| x.is_finite()).collect();
+        if !xs.is_empty() {
+            mean.insert(k.clone(), mean_ci(&xs));
+        }
+    }
+    (mean, notes)
+}
+
 impl Summary {
     /// Summarises `results` of `cfg` on `world`.
     pub fn new(cfg: &RunConfig, world: &World, results: &[SeedResult], complete: bool) -> Summary {
         let optimum = mmq_core::optimum(world).gain;
-        let seeds: Vec<_> = results.iter().map(|r| seed_metrics(r, optimum)).collect();
-        let done: Vec<_> = seeds.iter().filter(|m| m.get("complete") == Some(&1.0)).collect();
-        let mut mean = BTreeMap::new();
-        if let Some(first) = done.first() {
-            for k in first.keys() {
-                if k == "seed" || k == "complete" {
-                    continue;
-                }
-                let xs: Vec<f64> =
-                    done.iter().filter_map(|m| m.get(k).copied()).filter(|x| x.is_finite()).collect();
-                if !xs.is_empty() {
-                    mean.insert(k.clone(), mean_ci(&xs));
-                }
-            }
-        }
+        let ceiling = ceiling_per_step(cfg, world);
+        let seeds: Vec<SeedEntry> = results
+            .iter()
+            .map(|r| {
+                let mut metrics = seed_metrics(r, optimum, ceiling);
+                metrics.remove("seed");
+                metrics.remove("complete");
+                SeedEntry { seed: r.seed, complete: r.complete, metrics }
+            })
+            .collect();
+        let done: Vec<&BTreeMap<String, f64>> =
+            seeds.iter().filter(|e| e.complete).map(|e| &e.metrics).collect();
+        let (mean, notes) = aggregate(&done, |_| true);
         Summary {
             complete,
             config: cfg.clone(),
             learner: describe(&cfg.learner),
             world: world.name.clone(),
             optimum_per_step: optimum,
+            ceiling_per_step: ceiling,
             seeds,
             mean,
+            notes,
         }
     }
 

@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use mmq_core::stats::{MeanCi, mean_ci};
+use mmq_core::stats::MeanCi;
 use mmq_core::{DelayDist, World};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 use rayon::prelude::*;
@@ -603,16 +603,11 @@ impl SweepSpec {
         for (i, w) in world.values.iter().enumerate() {
             let p = Path::new(w);
             let path = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
-            // World::load first: it reads at most MAX_FILE_BYTES; then the bytes for the digest.
+            // World::load reads at most MAX_FILE_BYTES (or takes the shipped copy); the
+            // digest is of the text it parsed.
             let loaded =
                 World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
-            let bytes = std::fs::read(&path).map_err(|e| {
-                src.error(
-                    world.offset,
-                    &world.item(i),
-                    format!("cannot read the world file {}: {e}", path.display()),
-                )
-            })?;
+            let bytes = loaded.source.clone().into_bytes();
             worlds.push(loaded);
             world_paths.push(path);
             world_digests.push(format!("{:016x}", fnv1a(&bytes)));
@@ -1214,6 +1209,9 @@ pub fn run_sweep(
     let halted = || ctl.stop.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
     let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
     let optimum: Vec<f64> = spec.worlds.iter().map(|w| mmq_core::optimum(w).gain).collect();
+    let ceilings: Vec<Option<f64>> = (0..spec.configs.len())
+        .map(|c| crate::summary::ceiling_per_step(spec.config(c), spec.world(c)))
+        .collect();
 
     // The baseline of job (c, seed): computed by the first job that asks, awaited by
     // the others that ask meanwhile, dropped after its last user.
@@ -1271,7 +1269,7 @@ pub fn run_sweep(
             r.baseline = Some(b.0.clone());
             r.baseline_greedy_per_step = Some(b.1);
         }
-        let metrics = seed_metrics(&r, optimum[spec.world_of[c]]);
+        let metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
         if let Err(e) = write_job(out, plan, j, &metrics) {
             return fail(e);
         }
@@ -1399,8 +1397,10 @@ pub struct CellStats {
     pub cell: usize,
     /// Finished seeds.
     pub n: usize,
-    /// Per metric (results only, NaN values left out).
+    /// Per metric (results only, non-finite values left out).
     pub metrics: BTreeMap<String, MeanCi>,
+    /// Why a metric is absent (relative performance where a baseline earned ≤ 0).
+    pub notes: Vec<String>,
 }
 
 /// Per-cell statistics of `results`.
@@ -1409,17 +1409,8 @@ pub fn cell_stats(plan: &Plan, results: &[Option<Metrics>]) -> Vec<CellStats> {
     (0..plan.cells.len())
         .map(|c| {
             let done: Vec<&Metrics> = results[c * ns..(c + 1) * ns].iter().flatten().collect();
-            let keys: BTreeSet<&String> = done.iter().flat_map(|m| m.keys()).collect();
-            let metrics = keys
-                .into_iter()
-                .filter(|k| is_result_metric(k))
-                .filter_map(|k| {
-                    let xs: Vec<f64> =
-                        done.iter().filter_map(|m| m.get(k).copied()).filter(|x| !x.is_nan()).collect();
-                    (!xs.is_empty()).then(|| (k.clone(), mean_ci(&xs)))
-                })
-                .collect();
-            CellStats { cell: c, n: done.len(), metrics }
+            let (metrics, notes) = crate::summary::aggregate(&done, is_result_metric);
+            CellStats { cell: c, n: done.len(), metrics, notes }
         })
         .collect()
 }
@@ -1455,21 +1446,14 @@ pub fn summary_csv(plan: &Plan, stats: &[CellStats]) -> String {
 }
 
 /// Headline metrics of reports: (name, label, shown as a percentage).
-pub const HEADLINE: [(&str, &str, bool); 4] = [
+pub const HEADLINE: [(&str, &str, bool); 6] = [
     ("perf/relative", "relative performance", true),
+    ("perf/fraction_of_ceiling", "fraction of ε-soft ceiling", true),
     ("perf/fraction_of_optimum", "fraction of optimum", true),
+    ("perf/regret", "regret (reward)", false),
     ("eval/greedy_fraction_of_optimum", "greedy eval. (of optimum)", true),
     ("reward/earned_per_step", "earned / step", false),
 ];
-
-/// `mean ± ci95` of a headline metric.
-pub fn format_mean(m: &MeanCi, pct: bool) -> String {
-    if pct {
-        format!("{:.1} % ± {:.1}", 100.0 * m.mean, 100.0 * m.ci95)
-    } else {
-        format!("{:.4} ± {:.4}", m.mean, m.ci95)
-    }
-}
 
 /// A markdown report: the fixed parameters and a table of the headline metrics per cell.
 pub fn summary_markdown(plan: &Plan, stats: &[CellStats]) -> String {
@@ -1514,9 +1498,15 @@ pub fn summary_markdown(plan: &Plan, stats: &[CellStats]) -> String {
         }
         let _ = write!(out, " {} |", s.n);
         for h in &shown {
-            let _ = write!(out, " {} |", s.metrics.get(h.0).map_or("–".into(), |m| format_mean(m, h.2)));
+            let _ =
+                write!(out, " {} |", s.metrics.get(h.0).map_or("–".into(), |m| crate::format::mean(m, h.2)));
         }
         out.push('\n');
+    }
+    for s in stats {
+        for note in &s.notes {
+            let _ = writeln!(out, "\n- `{}`: {note}", plan.cells[s.cell].id);
+        }
     }
     out.push_str("\nEvery metric of every cell: `summary.csv`; every seed: `results.csv`.\n");
     out
@@ -1619,8 +1609,8 @@ mod tests {
         part.baseline = Some(base.run);
         part.baseline_greedy_per_step = Some(base.greedy_per_step);
         let opt = mmq_core::optimum(s.world(0)).gain;
-        let a = seed_metrics(&whole, opt);
-        let b = seed_metrics(&part, opt);
+        let a = seed_metrics(&whole, opt, None);
+        let b = seed_metrics(&part, opt, None);
         assert!(a.contains_key("perf/relative"));
         assert!(same_results(&a, &b), "{a:?}\n{b:?}");
     }

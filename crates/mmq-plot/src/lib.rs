@@ -39,6 +39,7 @@
 //! Architecture invariant: this is the only crate that knows plotters; it knows no
 //! learner, environment or run format — callers hand it numbers.
 
+mod clip;
 mod grid;
 mod line;
 mod render;

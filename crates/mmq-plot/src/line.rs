@@ -103,8 +103,13 @@ impl LineChart {
     }
 
     /// Writes `<base>.svg` and `<base>.png` (the directory must exist; `.svg`/`.png` are
-    /// appended to the file name) and returns both paths.
+    /// appended to the file name) and returns both paths. Points that a fixed y range
+    /// cuts are named in the title ([`LineChart::title_marking_clipping`]).
     pub fn write(&self, base: &Path) -> Result<Vec<PathBuf>, PlotError> {
+        let marked = self.title_marking_clipping();
+        if marked != self.title {
+            return write_figure(&LineChart { title: marked, ..self.clone() }, base);
+        }
         write_figure(self, base)
     }
 
