@@ -262,7 +262,7 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
              with this ε can earn) and the regret do not have a moving denominator.\n\n\
              **The robot column**, where present, is the same experiment on the rapier2d robot with its default \
              (ideal) profile: its controllers close the loop on the true pose, so with noise off its transitions are \
-             the grid's exactly and its numbers equal the grid's; the robot's realistic profile (odometry and \
+             the grid's exactly and, with the same seeds and steps, its numbers equal the grid's; the robot's realistic profile (odometry and \
              localisation) is the one that differs (docs/robot.md).",
             paper::EXPLORE_FIG_6.epsilon,
             paper::EXPLORE_FIG_6.q0
@@ -601,7 +601,7 @@ fn horizon(o: &PaperOptions, rep: &mut Report, stop: &AtomicBool, quiet: bool) -
     }
     rep.md.push_str(&t);
     let mut chart = LineChart::new(
-        "Relative performance against the horizon: MMQ, 9×9, λ = 13",
+        "MMQ against the horizon, 9×9, λ = 13",
         "horizon T (steps)",
         "relative performance up to T (%)",
     );
@@ -631,7 +631,7 @@ fn delay_window(mmq: &Group, rep: &mut Report, stop: &AtomicBool, sfx: &str) -> 
     let x: Vec<f64> = steps.iter().map(|s| s.t as f64).collect();
     let unit = if mmq.cfg.env == EnvKind::Robot { "primitive" } else { "step" };
     let mut chart = LineChart::new(
-        format!("Fig. 6{sfx}: when rewards are earned and when they arrive (MMQ, seed {})", first.seed),
+        format!("Fig. 6{sfx}: rewards earned and received, MMQ seed {}", first.seed),
         unit,
         "reward at the step",
     );

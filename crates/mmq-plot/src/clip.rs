@@ -1,6 +1,5 @@
 //! No silent clipping: a line chart with a fixed y range that cuts data says so in its
-//! title ("… (3 points above 200 not shown)"), on the picture itself, where a reader
-//! looks.
+//! title ("… (points: 3 above 200 cut)"), on the picture itself, where a reader looks.
 
 use crate::line::LineChart;
 
@@ -20,17 +19,17 @@ impl LineChart {
         let Some((lo, hi)) = self.y_range else { return self.title.clone() };
         let mut parts = Vec::new();
         if below > 0 {
-            parts.push(format!("{below} point{} below {} not shown", plural(below), num(lo)));
+            parts.push(format!("{below} below {} cut", num(lo)));
         }
         if above > 0 {
-            parts.push(format!("{above} point{} above {} not shown", plural(above), num(hi)));
+            parts.push(format!("{above} above {} cut", num(hi)));
         }
-        if parts.is_empty() { self.title.clone() } else { format!("{} ({})", self.title, parts.join(", ")) }
+        if parts.is_empty() {
+            self.title.clone()
+        } else {
+            format!("{} (points: {})", self.title, parts.join(", "))
+        }
     }
-}
-
-fn plural(n: usize) -> &'static str {
-    if n == 1 { "" } else { "s" }
 }
 
 fn num(x: f64) -> String {
