@@ -157,14 +157,15 @@ pub struct RunArgs {
     /// Record every seed's trajectory to MCAP (trajectory-seed<N>.mcap in --out).
     #[arg(long)]
     pub record: bool,
-    /// Robot pose samples per second of simulated time in the recording (0: every physics step).
-    #[arg(long, default_value_t = 10.0)]
-    pub record_rate: f64,
-    /// Record only the first N steps (and the last --record-last N).
-    #[arg(long)]
+    /// Robot pose samples per second of simulated time in the recording (0: every physics
+    /// step; default 10). Needs --record.
+    #[arg(long, requires = "record")]
+    pub record_rate: Option<f64>,
+    /// Record only the first N steps (and the last --record-last N). Needs --record.
+    #[arg(long, requires = "record")]
     pub record_first: Option<u64>,
-    /// Record only the last N steps (and the first --record-first N).
-    #[arg(long)]
+    /// Record only the last N steps (and the first --record-first N). Needs --record.
+    #[arg(long, requires = "record")]
     pub record_last: Option<u64>,
     /// Output directory.
     #[arg(long, short, default_value = "runs/latest")]

@@ -26,6 +26,13 @@ pub fn replay(a: ReplayArgs) -> Result<(), Failure> {
             (None, None) => None,
             (f, t) => Some((f.unwrap_or(0), t.unwrap_or(u64::MAX))),
         };
+        if let Some((from, to)) = window
+            && from >= to
+        {
+            return Err(crate::input_error(format!(
+                "--from {from} --to {to}: the window is empty; give --from below --to (decision steps)"
+            )));
+        }
         if out.extension().is_none_or(|e| e != "svg") {
             return Err(crate::input_error(format!(
                 "--render {}: only .svg output is supported",

@@ -37,7 +37,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         save_tables: !a.no_tables,
         ledger: false,
         record: a.record.then_some(mmq_lab::config::RecordSettings {
-            pose_rate_hz: a.record_rate,
+            pose_rate_hz: a.record_rate.unwrap_or(10.0),
             first: a.record_first,
             last: a.record_last,
         }),

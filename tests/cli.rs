@@ -57,6 +57,37 @@ mod bad_input {
     fn usage_errors_exit_2() {
         let o = mmq(&["run", "--no-such-flag"]);
         assert_eq!(o.status.code(), Some(2));
+        // Recording settings without --record would be silently ignored.
+        for flag in ["--record-rate", "--record-first", "--record-last"] {
+            let o = mmq(&["run", flag, "5", "--steps", "10"]);
+            let (_, err) = text(&o);
+            assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
+            assert!(err.contains("--record"), "{err}");
+        }
+    }
+
+    /// An empty replay window is refused, not drawn as an empty picture.
+    #[test]
+    fn empty_render_window_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().to_string_lossy().into_owned();
+        let o = mmq(&["run", "--world", "paper-3x3", "--steps", "100", "--record", "-q", "--out", &out]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        let rec = d.path().join("trajectory-seed0.mcap");
+        let svg = d.path().join("x.svg");
+        let o = mmq(&[
+            "replay",
+            &rec.to_string_lossy(),
+            "--render",
+            &svg.to_string_lossy(),
+            "--from",
+            "50",
+            "--to",
+            "10",
+        ]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(3), "{err}");
+        assert!(err.contains("--from 50 --to 10") && !svg.exists(), "{err}");
     }
 }
 

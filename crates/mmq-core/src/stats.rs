@@ -36,6 +36,14 @@ pub fn t975(df: usize) -> f64 {
     }
 }
 
+/// A number for a message: plain where that is short (`0.5`, `-1`, `150000`), in
+/// scientific notation where the plain form would run to many digits (`1e308`, `1e-9`).
+pub fn compact(x: f64) -> String {
+    let plain = x.to_string();
+    let tiny = x != 0.0 && x.abs() < 1e-4;
+    if plain.len() <= 16 && !tiny { plain } else { format!("{x:e}") }
+}
+
 /// Mean and 95 % interval of `xs`.
 pub fn mean_ci(xs: &[f64]) -> MeanCi {
     let n = xs.len();
@@ -54,6 +62,15 @@ pub fn mean_ci(xs: &[f64]) -> MeanCi {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_in_messages_stay_short() {
+        assert_eq!(compact(0.5), "0.5");
+        assert_eq!(compact(-1.0), "-1");
+        assert_eq!(compact(1e308), "1e308");
+        assert_eq!(compact(1e-9), "1e-9");
+        assert_eq!(compact(f64::NAN), "NaN");
+    }
 
     #[test]
     fn interval_by_hand() {

@@ -45,9 +45,10 @@ pub enum Cell {
     Blocked,
 }
 
-/// Reward values of a world.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Reward values of a world. In a world file they are a table with named fields
+/// (`[rewards]`, `goal = 10.0`); a bare list such as `rewards = [1, 2]` is refused, since
+/// which number is which would be a guess.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Rewards {
     /// Reward for any action taken in the goal cell (paper: +10).
     #[serde(default = "default_goal")]
@@ -58,6 +59,35 @@ pub struct Rewards {
     /// Reward for every other move (paper: 0).
     #[serde(default)]
     pub step: f64,
+}
+
+/// The `[rewards]` table as written: named fields only.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RewardsTable {
+    #[serde(default = "default_goal")]
+    goal: f64,
+    #[serde(default = "default_wall")]
+    wall: f64,
+    #[serde(default)]
+    step: f64,
+}
+
+impl<'de> Deserialize<'de> for Rewards {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Named;
+        impl<'de> serde::de::Visitor<'de> for Named {
+            type Value = Rewards;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a table of named rewards, e.g. [rewards] goal = 10.0, wall = -1.0, step = 0.0")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<Rewards, A::Error> {
+                let t = RewardsTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(Rewards { goal: t.goal, wall: t.wall, step: t.step })
+            }
+        }
+        d.deserialize_map(Named)
+    }
 }
 
 fn default_goal() -> f64 {
@@ -224,10 +254,17 @@ impl World {
                 .unwrap_or_default();
             err(format!("{at}{msg}"))
         })?;
+        for (field, text) in [("name", raw.name.as_deref()), ("description", raw.description.as_deref())] {
+            if text.is_some_and(|t| t.chars().any(|c| c.is_control() && c != '\n' && c != '\t')) {
+                return Err(err(format!(
+                    "field `{field}` holds a control character; use printable text (names reach terminals and reports)"
+                )));
+            }
+        }
         if !(raw.cell_size.is_finite() && raw.cell_size > 0.0 && raw.cell_size <= 100.0) {
             return Err(err(format!(
                 "field `cell_size` = {} is not a size in metres; use a number in (0, 100], e.g. 0.5",
-                raw.cell_size
+                crate::stats::compact(raw.cell_size)
             )));
         }
         for (field, v) in [
@@ -237,7 +274,8 @@ impl World {
         ] {
             if !v.is_finite() || v.abs() > 1e9 {
                 return Err(err(format!(
-                    "field `{field}` = {v} must be a finite number of magnitude at most 1e9"
+                    "field `{field}` = {} must be a finite number of magnitude at most 1e9",
+                    crate::stats::compact(v)
                 )));
             }
         }
@@ -301,7 +339,10 @@ impl World {
             }
         };
         let world = World {
-            name: raw.name.or(stem.map(str::to_string)).unwrap_or_else(|| "world".into()),
+            name: raw
+                .name
+                .or(stem.map(|s| s.chars().map(|c| if c.is_control() { '?' } else { c }).collect()))
+                .unwrap_or_else(|| "world".into()),
             description: raw.description.unwrap_or_default(),
             width,
             height,

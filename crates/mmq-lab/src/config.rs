@@ -120,6 +120,17 @@ impl RunConfig {
         if self.seeds == 0 || self.seeds > 1_000_000 {
             return Err(LabError::param("--seeds", self.seeds, "use a number of seeds in 1..=1000000"));
         }
+        if self.seed.checked_add(self.seeds - 1).is_none() {
+            return Err(LabError::param(
+                "--seed",
+                self.seed,
+                &format!(
+                    "the {} seeds from it would pass 2^64 − 1; use a first seed of at most {}",
+                    self.seeds,
+                    u64::MAX - (self.seeds - 1)
+                ),
+            ));
+        }
         if self.window == 0 {
             return Err(LabError::param("--window", self.window, "use a window of at least 1 step"));
         }
@@ -162,7 +173,7 @@ impl RunConfig {
 
     /// The master seeds of this run.
     pub fn seed_list(&self) -> Vec<u64> {
-        (0..self.seeds).map(|i| self.seed.wrapping_add(i)).collect()
+        (0..self.seeds).map(|i| self.seed.saturating_add(i)).collect()
     }
 }
 

@@ -95,6 +95,13 @@ impl LabError {
 
     /// An invalid parameter error.
     pub fn param(field: &str, value: impl ToString, accepted: &str) -> Self {
-        LabError::InvalidParam { field: field.into(), value: value.to_string(), accepted: accepted.into() }
+        let value = value.to_string();
+        // A float of 300 digits says no more than its scientific form (integers, at most
+        // 20 digits, stay as they are).
+        let value = match value.parse::<f64>() {
+            Ok(x) if value.len() > 24 => mmq_core::stats::compact(x),
+            _ => value,
+        };
+        LabError::InvalidParam { field: field.into(), value, accepted: accepted.into() }
     }
 }

@@ -568,8 +568,12 @@ impl SweepSpec {
                         if n == 0 || n > 1_000_000 {
                             return Err(src.error(offset, "seeds", format!("{n} is not accepted; use a number of seeds in 1..=1000000, or a list of master seeds")));
                         }
-                        let first = first.map_or(0, |f| f.into_inner());
-                        (0..n).map(|i| first.wrapping_add(i)).collect()
+                        let (first_at, first) =
+                            first.map_or((offset, 0), |f| (f.span().start, f.into_inner()));
+                        if first.checked_add(n - 1).is_none() {
+                            return Err(src.error(first_at, "seed", format!("{first} is not accepted: the {n} seeds from it would pass 2^64 − 1; use a first seed of at most {}", u64::MAX - (n - 1))));
+                        }
+                        (0..n).map(|i| first + i).collect()
                     }
                     SeedsField::List(v) => {
                         if let Some(f) = first {

@@ -48,10 +48,7 @@ mod tests {
         assert_eq!(c.title_marking_clipping(), "t");
         c.y_range = Some((-60.0, 200.0));
         assert_eq!(c.clipped_points(), (1, 1));
-        assert_eq!(
-            c.title_marking_clipping(),
-            "t (1 point below −60 not shown, 1 point above 200 not shown)"
-        );
+        assert_eq!(c.title_marking_clipping(), "t (points: 1 below −60 cut, 1 above 200 cut)");
         c.y_range = Some((-200.0, 400.0));
         assert_eq!(c.title_marking_clipping(), "t");
     }
