@@ -37,6 +37,7 @@ impl std::fmt::Debug for Control<'_> {
 /// Builds a per-seed observer (an MCAP recorder, say), or none.
 pub type ObserverFactory<'a> = dyn Fn(u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> + Sync + 'a;
 
+/// Progress is reported every this many steps.
 const CHECK_EVERY: u64 = 1024;
 
 /// One row of a learning curve: totals over the window ending at `step`.
@@ -284,12 +285,14 @@ fn learn<E: Env>(
     let mut window_left = cfg.window;
     let mut pending_progress = 0u64;
     for t in 0..cfg.steps {
+        // The stop flag every step (one relaxed load: a robot primitive can take long);
+        // progress in chunks.
+        if ctl.stop.load(Ordering::Relaxed) {
+            break;
+        }
         if t % CHECK_EVERY == 0 && t > 0 {
             (ctl.progress)(pending_progress);
             pending_progress = 0;
-            if ctl.stop.load(Ordering::Relaxed) {
-                break;
-            }
         }
         let d = learner.act(s, &mut rng);
         let st = ch.step(d.action).map_err(env_err)?;
