@@ -119,6 +119,7 @@ mod interrupt {
             .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
             .collect();
         v.sort();
+        assert!(!v.is_empty(), "{}: no regression cases", dir.display());
         v
     }
 
@@ -470,8 +471,10 @@ mod regressions {
     use super::*;
 
     fn cases(target: &str) -> Vec<(String, Vec<u8>)> {
+        // A missing or empty folder is a failure: the test would otherwise pass having
+        // checked nothing.
         let dir = root().join("tests/regressions").join(target);
-        let Ok(rd) = std::fs::read_dir(&dir) else { return Vec::new() };
+        let rd = std::fs::read_dir(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
         let mut v: Vec<(String, Vec<u8>)> = rd
             .map(|e| e.unwrap().path())
             .filter(|p| p.is_file())

@@ -470,7 +470,11 @@ mod tests {
         let o = BeyondOptions::new(true);
         let all = settings();
         assert_eq!(all.len(), 2 * (4 * 3 + 3 * 2) * LEARNERS.len() + 4 * 2 * 2);
-        assert_eq!(LEARNERS.len(), 8);
+        // The comparison names each learner once, and only learners the catalogue has.
+        let names: std::collections::BTreeSet<&str> = LEARNERS.iter().map(|k| k.name()).collect();
+        assert_eq!(names.len(), LEARNERS.len());
+        let catalogue: Vec<&str> = mmq_learn::catalogue().into_iter().map(|(_, n, _)| n).collect();
+        assert!(names.iter().all(|n| catalogue.contains(n)), "{names:?} vs {catalogue:?}");
         for s in &all {
             let c = config(&o, s);
             c.validate().unwrap();
