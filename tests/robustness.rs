@@ -572,8 +572,80 @@ mod regressions {
 mod endless_files {
     use super::*;
 
-    /// A world "file" that never ends (`/dev/zero`) is refused after 16 MiB, quickly and
-    /// with a bounded amount of memory, instead of being read until memory runs out.
+    /// A FIFO as a world or a sweep spec is refused at once (opening it would block
+    /// until a writer came), and a world file over the size limit by its size.
+    #[test]
+    fn fifos_and_huge_files_are_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let fifo = d.path().join("w.toml");
+        let made = Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: mkfifo is not available");
+            return;
+        }
+        let f = fifo.to_string_lossy().into_owned();
+        for args in [vec!["world", "check", &f], vec!["sweep", &f, "--out", "/nonexistent-out"]] {
+            let t0 = Instant::now();
+            let o = mmq(&args);
+            let (_, err) = text(&o);
+            assert_eq!(o.status.code(), Some(3), "{args:?}: {err}");
+            assert!(err.contains("not a regular file"), "{err}");
+            assert!(t0.elapsed() < Duration::from_secs(30), "{:?}", t0.elapsed());
+        }
+        let big = d.path().join("big.toml");
+        std::fs::File::create(&big).unwrap().set_len(17 << 20).unwrap();
+        let o = mmq(&["world", "check", &big.to_string_lossy()]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(3), "{err}");
+        assert!(err.contains("larger than 16 MiB"), "{err}");
+    }
+
+    /// A sweep job file replaced by a link to /dev/zero is not a finished job: the
+    /// resumed sweep runs that job again instead of reading without end.
+    #[test]
+    fn a_job_file_linked_to_dev_zero_is_run_again() {
+        if !Path::new("/dev/zero").exists() {
+            return;
+        }
+        let d = tempfile::tempdir().unwrap();
+        let spec = d.path().join("s.toml");
+        std::fs::copy(root().join("worlds/paper-3x3.toml"), d.path().join("w.toml")).unwrap();
+        std::fs::write(&spec, "world = \"w.toml\"\nlearner = \"q\"\nsteps = 500\nseeds = 2\n").unwrap();
+        let out = d.path().join("o");
+        let (spec, out_s) = (spec.to_string_lossy().into_owned(), out.to_string_lossy().into_owned());
+        assert!(mmq(&["sweep", &spec, "--out", &out_s, "-q"]).status.success());
+        let jobs: Vec<PathBuf> = walk(&out.join("cells"))
+            .into_iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "json"))
+            .collect();
+        assert_eq!(jobs.len(), 2, "{jobs:?}");
+        let results = |p: &Path| {
+            let mut j = read_json(p);
+            j["metrics"].as_object_mut().unwrap().retain(|k, _| !k.starts_with("time/"));
+            j
+        };
+        let before = results(&jobs[0]);
+        std::fs::remove_file(&jobs[0]).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", &jobs[0]).unwrap();
+        let t0 = Instant::now();
+        let o = mmq(&["sweep", &spec, "--out", &out_s, "-q"]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        assert!(t0.elapsed() < Duration::from_secs(60), "{:?}", t0.elapsed());
+        assert_eq!(results(&jobs[0]), before, "the job ran again, with the same results (timings aside)");
+    }
+
+    fn walk(dir: &Path) -> Vec<PathBuf> {
+        let mut v = Vec::new();
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() { v.extend(walk(&p)) } else { v.push(p) }
+        }
+        v.sort();
+        v
+    }
+
+    /// A world "file" that never ends (`/dev/zero`) is refused at once as not a regular
+    /// file, instead of being read until memory runs out.
     #[test]
     fn dev_zero_as_a_world_is_refused() {
         if !Path::new("/dev/zero").exists() {
@@ -588,7 +660,7 @@ mod endless_files {
             let o = mmq(&args);
             let (_, err) = text(&o);
             assert_eq!(o.status.code(), Some(3), "{args:?}: {err}");
-            assert!(err.contains("/dev/zero: the world file is larger than 16 MiB"), "{err}");
+            assert!(err.contains("/dev/zero: cannot read the world file: not a regular file"), "{err}");
             assert!(t0.elapsed() < Duration::from_secs(30), "{:?}", t0.elapsed());
         }
     }

@@ -9,6 +9,7 @@ pub mod ceiling;
 pub mod channel;
 pub mod delay;
 pub mod env;
+pub mod files;
 pub mod observer;
 pub mod optimum;
 pub mod seed;

@@ -22,7 +22,6 @@
 
 use std::collections::VecDeque;
 use std::fmt;
-use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
@@ -191,12 +190,6 @@ impl World {
     pub fn load(path: impl AsRef<Path>) -> Result<World, WorldError> {
         let path = path.as_ref();
         let file = path.display().to_string();
-        let cannot = |e: std::io::Error| WorldError {
-            file: file.clone(),
-            message: format!("cannot read the world file: {e}"),
-        };
-        // Read at most MAX_FILE_BYTES (+1 to notice more): `--world /dev/zero`, a FIFO
-        // or a huge file must not take all memory.
         let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
         let shipped = || {
             let by_name = path.extension().is_none() && path.components().count() == 1;
@@ -209,28 +202,22 @@ impl World {
             w.path = None;
             return Ok(w);
         }
-        let mut text = String::new();
-        std::fs::File::open(path)
-            .and_then(|f| f.take(MAX_FILE_BYTES + 1).read_to_string(&mut text))
-            .map_err(|e| match e.kind() {
-                std::io::ErrorKind::NotFound => WorldError {
-                    file: file.clone(),
-                    message: format!(
-                        "no such world file, and no shipped world of that name; give a path to a world file or one of: {}",
-                        crate::shipped::world_names()
-                    ),
-                },
-                _ => cannot(e),
-            })?;
-        if text.len() as u64 > MAX_FILE_BYTES {
-            return Err(WorldError {
-                file,
-                message: format!(
+        // At most MAX_FILE_BYTES, and only a regular file: `--world /dev/zero`, a FIFO or a
+        // huge file must neither hang nor take all memory.
+        let text = crate::files::read_text_bounded(path, MAX_FILE_BYTES).map_err(|e| {
+            let message = match e {
+                crate::files::ReadError::Io(e) if e.kind() == std::io::ErrorKind::NotFound => format!(
+                    "no such world file, and no shipped world of that name; give a path to a world file or one of: {}",
+                    crate::shipped::world_names()
+                ),
+                crate::files::ReadError::TooLarge { .. } => format!(
                     "the world file is larger than {} MiB; a world file is a small text file (see docs/worlds.md)",
                     MAX_FILE_BYTES >> 20
                 ),
-            });
-        }
+                e => format!("cannot read the world file: {e}"),
+            };
+            WorldError { file: file.clone(), message }
+        })?;
         let mut w = Self::parse_named(&text, &file, stem.as_deref())?;
         w.path = Some(path.to_path_buf());
         Ok(w)

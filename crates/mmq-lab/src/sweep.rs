@@ -375,25 +375,25 @@ impl Plan {
 pub const MAX_JOBS: usize = 1_000_000;
 /// Largest sweep spec file read, bytes: a spec is a small text file.
 pub const MAX_SPEC_BYTES: u64 = 1 << 20;
+/// Largest job file read, bytes: one job's metrics are a few KiB.
+pub const MAX_JOB_BYTES: u64 = 1 << 20;
+/// Largest `sweep.json` read, bytes: the plan of the largest accepted sweep.
+pub const MAX_MANIFEST_BYTES: u64 = 512 << 20;
 
 impl SweepSpec {
     /// Reads and validates a spec file. Relative world paths are resolved against the
     /// spec file's directory.
     pub fn load(path: &Path) -> Result<SweepSpec, LabError> {
-        use std::io::Read as _;
         let cannot = |message: String| LabError::Config { file: path.display().to_string(), message };
-        // Read at most MAX_SPEC_BYTES (+1 to notice more): `/dev/zero` or a FIFO must not
-        // take all memory.
-        let mut text = String::new();
-        std::fs::File::open(path)
-            .and_then(|f| f.take(MAX_SPEC_BYTES + 1).read_to_string(&mut text))
-            .map_err(|e| cannot(format!("cannot read the sweep spec: {e}")))?;
-        if text.len() as u64 > MAX_SPEC_BYTES {
-            return Err(cannot(format!(
+        // At most MAX_SPEC_BYTES of a regular file: `/dev/zero` or a FIFO must neither
+        // hang nor take all memory.
+        let text = mmq_core::files::read_text_bounded(path, MAX_SPEC_BYTES).map_err(|e| match e {
+            mmq_core::files::ReadError::TooLarge { .. } => cannot(format!(
                 "the sweep spec is larger than {} MiB; a spec is a small TOML file (see docs/sweeps.md)",
                 MAX_SPEC_BYTES >> 20
-            )));
-        }
+            )),
+            e => cannot(format!("cannot read the sweep spec: {e}")),
+        })?;
         Self::parse(&text, path)
     }
 
@@ -874,7 +874,9 @@ fn encode(x: f64) -> String {
 /// Reads job `j`'s file in `dir` if it is there and belongs to this plan's cell.
 fn read_job(dir: &Path, plan: &Plan, j: usize) -> Option<Metrics> {
     let (c, seed) = plan.job(j);
-    let text = std::fs::read_to_string(plan.job_path(dir, j)).ok()?;
+    // A job file is a few KiB; anything else (a link to /dev/zero, a FIFO, a huge file)
+    // is not a finished job and is run again.
+    let text = mmq_core::files::read_text_bounded(&plan.job_path(dir, j), MAX_JOB_BYTES).ok()?;
     let s: StoredJob = serde_json::from_str(&text).ok()?;
     let cell = &plan.cells[c];
     let params_match =
@@ -923,7 +925,7 @@ pub fn load_results(dir: &Path, plan: &Plan) -> Vec<Option<Metrics>> {
 /// Reads `DIR/sweep.json`.
 pub fn read_manifest(dir: &Path) -> Result<Manifest, LabError> {
     let p = dir.join("sweep.json");
-    let text = std::fs::read_to_string(&p).map_err(|e| LabError::Config {
+    let text = mmq_core::files::read_text_bounded(&p, MAX_MANIFEST_BYTES).map_err(|e| LabError::Config {
         file: p.display().to_string(),
         message: format!("not a sweep output directory ({e}); run `mmq sweep SPEC --out DIR` first"),
     })?;
@@ -1376,7 +1378,10 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
                 None => {
                     let src = plan.job_path(d, j);
                     let bytes =
-                        std::fs::read(&src).map_err(|source| LabError::Io { path: src.clone(), source })?;
+                        mmq_core::files::read_bounded(&src, MAX_JOB_BYTES).map_err(|e| LabError::Config {
+                            file: src.display().to_string(),
+                            message: format!("cannot read the job file: {e}"),
+                        })?;
                     write_renamed(&plan.job_path(out, j), &bytes)?;
                     have[j] = Some(r);
                     copied += 1;
@@ -1384,7 +1389,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
             }
         }
     }
-    let spec_text = std::fs::read(first.join("spec.toml")).unwrap_or_default();
+    let spec_text =
+        mmq_core::files::read_bounded(&first.join("spec.toml"), MAX_SPEC_BYTES).unwrap_or_default();
     write_atomic(&out.join("spec.toml"), &spec_text)?;
     let (results_csv, _, _, done) = finish_dir(out, plan, &m0.spec_file, None)?;
     Ok(MergeOutcome { jobs_total: plan.jobs(), done, copied, results_csv })
@@ -1568,7 +1574,7 @@ mod tests {
     }
 
     /// A few bytes must not describe more than MAX_JOBS jobs (every cell is built in
-    /// memory), and `/dev/zero` as a spec is refused after MAX_SPEC_BYTES.
+    /// memory), and `/dev/zero` as a spec is refused as not a regular file.
     #[test]
     fn refuses_specs_too_large_to_build() {
         let alphas: Vec<String> = (0..101).map(|i| format!("{}", i as f64 / 100.0)).collect();
@@ -1581,7 +1587,7 @@ mod tests {
         assert!(e.contains("1009899 cells × 2 seeds is more than 1000000 jobs"), "{e}");
         if Path::new("/dev/zero").exists() {
             let e = SweepSpec::load(Path::new("/dev/zero")).unwrap_err().to_string();
-            assert!(e.contains("/dev/zero") && e.contains("larger than 1 MiB"), "{e}");
+            assert!(e.contains("/dev/zero") && e.contains("not a regular file"), "{e}");
         }
     }
 
