@@ -112,9 +112,15 @@ pub struct RunArgs {
     /// Learner (see `mmq learners`).
     #[arg(long, default_value = "mmq")]
     pub learner: String,
-    /// Reward delay: none, const:K, poisson:L, geometric:P, uniform:LO:HI, hist:W0,W1,..., mix:P1*SPEC1+P2*SPEC2.
+    /// Reward delay. In steps: none, const:K, poisson:L, geometric:P, uniform:LO:HI,
+    /// hist:W0,W1,..., mix:P1*SPEC1+P2*SPEC2. In seconds of simulated time: const:2s,
+    /// uniform:0s:20s, exponential:4s, lognormal:MEDIANs:SIGMA, hist@0.5s:W0,W1,..., wifi,
+    /// mix of those.
     #[arg(long, default_value = "poisson:13")]
     pub delay: String,
+    /// Width of deconv-model-time's time bins, seconds (default 0.1).
+    #[arg(long)]
+    pub time_bin: Option<f64>,
     /// λ̂max of MMQ (N = λ̂max + 1 models).
     #[arg(long, default_value_t = 50)]
     pub max_delay: usize,

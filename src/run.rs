@@ -25,7 +25,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
             params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
             lambda_hat: a.lambda_hat,
             max_delay: a.max_delay,
-            beyond: Default::default(),
+            beyond: mmq_learn::beyond::BeyondParams { time_bin_s: a.time_bin, ..Default::default() },
         },
         delay: a.delay.clone(),
         steps: a.steps,
@@ -92,6 +92,8 @@ pub fn print_summary(s: &Summary) {
         ("reward/earned_per_step", "earned reward per step", false),
         ("eval/greedy_per_step", "greedy evaluation, reward per step", false),
         ("baseline/earned_per_step", "undelayed Q-learning, reward per step", false),
+        ("delay/delivered_mean_steps", "mean delay delivered, steps", false),
+        ("delay/delivered_mean_s", "mean delay delivered, seconds", false),
     ] {
         if let Some(m) = s.get(key) {
             let text = if key == "perf/regret" { format::mean_num(&m, 1) } else { format::mean(&m, pct) };

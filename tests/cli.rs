@@ -132,6 +132,50 @@ mod run {
         assert_eq!(npy.len() - 10 - hlen, 9 * 51 * 4 * 8);
     }
 
+    /// A delay in seconds on the grid: the summary reports the delivered delays' mean in
+    /// seconds and in steps, consistent through the world's 0.1 s step period (each
+    /// delivered delay is its drawn delay rounded up to the end of a step, so the mean in
+    /// seconds is within one period of the spec's 4 s, up to sampling noise).
+    #[test]
+    fn delay_in_seconds_reports_both_units() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().to_string_lossy().into_owned();
+        let o = mmq(&[
+            "run",
+            "--world",
+            "worlds/paper-3x3.toml",
+            "--learner",
+            "deconv-model-time",
+            "--delay",
+            "exponential:4s",
+            "--max-delay",
+            "60",
+            "--time-bin",
+            "0.1",
+            "--steps",
+            "4000",
+            "--no-baseline",
+            "-q",
+            "--out",
+            &out,
+        ]);
+        let (stdout, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        assert!(stdout.contains("mean delay delivered, seconds"), "{stdout}");
+        let s = read_json(&d.path().join("summary.json"));
+        let seed = &s["seeds"][0];
+        let (mean_s, mean_steps, n) = (
+            seed["delay/delivered_mean_s"].as_f64().unwrap(),
+            seed["delay/delivered_mean_steps"].as_f64().unwrap(),
+            seed["delay/delivered"].as_f64().unwrap(),
+        );
+        assert!((mean_s - 0.1 * mean_steps).abs() < 1e-6, "{mean_s} s vs {mean_steps} steps");
+        // The sample mean of n exponential delays has SE 4/√n.
+        assert!((mean_s - 4.05).abs() < 0.05 + 5.0 * 4.0 / n.sqrt(), "{mean_s} s over {n}");
+        assert_eq!(seed["learner/time_bins_shifted"].as_f64(), Some(0.0));
+        assert!(std::fs::read_to_string(d.path().join("config.toml")).unwrap().contains("time_bin_s = 0.1"));
+    }
+
     /// Same seeds ⇒ identical summaries on 1 and 2 threads (wall time aside).
     #[test]
     fn thread_count_does_not_change_results() {

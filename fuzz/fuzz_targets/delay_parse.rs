@@ -1,7 +1,8 @@
 //! Fuzzes `DelayDist::parse` (delay spec strings such as `poisson:13` or
-//! `mix:0.5*const:2+0.5*poisson:20`): any string gives a distribution or an error, never a
-//! panic; an accepted distribution has a finite mean within the supported range, a
-//! working sampler and a printed form that parses again.
+//! `mix:0.5*const:2+0.5*poisson:20`, or in seconds `exponential:4s`, `hist@0.5s:1,2`):
+//! any string gives a distribution or an error, never a panic; an accepted distribution
+//! has a finite mean within the supported range, a working sampler (delays in seconds:
+//! finite and ≥ 0) and a printed form that parses again.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -22,6 +23,13 @@ fuzz_target!(|data: &[u8]| {
     let mut rng = mmq_core::seed::rng_from_seed(7);
     for _ in 0..16 {
         let _ = s.sample(&mut rng);
+    }
+    if let Some(sd) = d.as_seconds() {
+        let s = sd.sampler();
+        for _ in 0..16 {
+            let x = s.sample(&mut rng);
+            assert!(x.is_finite() && x >= 0.0, "{spec}: drew {x} s");
+        }
     }
     let printed = d.to_string();
     let _ = DelayDist::parse(&printed);

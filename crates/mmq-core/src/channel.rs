@@ -2,14 +2,29 @@
 //! d ~ D and is delivered at step t + d; all deliveries due at one step are summed (out
 //! of order and overlapping, the paper's setting).
 //!
+//! A delay in seconds ([`DelayDist::Seconds`]) counts simulated time instead: a reward
+//! emitted at the end of a step, at time t_e = `Env::sim_time_s()`, with delay d seconds is
+//! delivered with the first decision that *ends* at or after t_e + d (times compared to
+//! the nanosecond), summed with whatever else is due, exactly like step delays. A delay
+//! of 0 s is delivered at once, like a delay of 0 steps.
+//!
 //! Conservation holds at every step: emitted = delivered + in flight. The optional
-//! ground-truth [`Ledger`] records which emission fed which delivery; it is for
-//! evaluation, logging and the oracle learner only.
+//! ground-truth [`Ledger`] records which emission fed which delivery, with times in steps
+//! and seconds; it is for evaluation, logging and the oracle learner only. Without a
+//! ledger the channel still keeps the mean delay of what it delivered
+//! ([`DelayedReward::delay_stats`]).
 
-use crate::delay::{DelayDist, DelaySampler};
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use crate::delay::{DelayDist, DelaySampler, SecondsSampler};
 use crate::env::{Action, Env, EnvError, Start, State, Step, StepTrace};
 use crate::observer::StepRecord;
 use crate::seed::{Rng, rng_from_seed};
+
+/// Times closer than this are equal when the channel compares a due time with the end
+/// of a decision, seconds (the grid's clock is a product t·period, not exact).
+pub const TIME_TOLERANCE_S: f64 = 1e-9;
 
 /// One emitted reward as the ledger knows it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,10 +35,35 @@ pub struct Emission {
     pub t_emit: u64,
     /// Its value.
     pub value: f64,
-    /// The delay drawn, in steps.
+    /// The delay in steps: drawn (a delay in steps), or the steps from emission to
+    /// delivery (a delay in seconds; [`Emission::PENDING`] while in flight).
     pub delay: u32,
-    /// Step at which it is delivered (t_emit + delay).
+    /// Step at which it is delivered (t_emit + delay; for a delay in seconds
+    /// `u64::MAX` while in flight).
     pub due: u64,
+    /// Simulated time of the emission (the end of step `t_emit`), seconds.
+    pub t_emit_s: f64,
+    /// The delay drawn in seconds (a delay in seconds); NaN for a delay in steps.
+    pub drawn_s: f64,
+    /// Simulated time at the end of the delivery step, seconds (NaN while in flight).
+    pub due_s: f64,
+}
+
+impl Emission {
+    /// `delay` of an emission delayed in seconds that is still in flight.
+    pub const PENDING: u32 = u32::MAX;
+
+    /// The delay from emission to delivery in seconds (`due_s − t_emit_s`; NaN while in
+    /// flight). For a delay in seconds it is the drawn delay plus the wait for the end of
+    /// the decision that delivers it.
+    pub fn delay_s(&self) -> f64 {
+        self.due_s - self.t_emit_s
+    }
+
+    /// Whether it has been delivered.
+    pub fn delivered(&self) -> bool {
+        !self.due_s.is_nan()
+    }
 }
 
 /// Ground truth of the channel: every emission, by id.
@@ -50,10 +90,88 @@ pub struct DelayedStep {
     pub t: u64,
     /// The environment's transition, with the reward as emitted.
     pub step: Step,
-    /// The delay drawn for this step's reward (`None` when the reward was zero).
+    /// The delay drawn for this step's reward (`None` when the reward was zero); for a
+    /// delay in seconds [`Emission::PENDING`] (the steps are known at delivery).
     pub delay: Option<u32>,
+    /// The delay drawn in seconds for this step's reward (a delay in seconds only).
+    pub delay_s: Option<f64>,
     /// The reward delivered at this step: the sum of every emission due at t.
     pub delivered: f64,
+    /// Simulated time at the end of the step, seconds.
+    pub time_s: f64,
+}
+
+/// The delays of the rewards delivered so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DelayStats {
+    /// Emissions delivered.
+    pub delivered: u64,
+    /// Sum of their delays in steps (delivery step − emission step).
+    pub sum_steps: f64,
+    /// Sum of their delays in seconds (end of the delivery step − emission time).
+    pub sum_s: f64,
+}
+
+impl DelayStats {
+    /// Mean delivered delay in steps (NaN when nothing was delivered).
+    pub fn mean_steps(&self) -> f64 {
+        self.sum_steps / self.delivered as f64
+    }
+    /// Mean delivered delay in seconds (NaN when nothing was delivered).
+    pub fn mean_s(&self) -> f64 {
+        self.sum_s / self.delivered as f64
+    }
+}
+
+/// Pending rewards of a step delay, by due step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Slot {
+    /// Sum of the values due.
+    sum: f64,
+    /// How many emissions are due.
+    n: u32,
+    /// Sum of their emission steps and emission times (for [`DelayStats`]).
+    sum_t: f64,
+    sum_time: f64,
+}
+
+/// A reward in flight with a delay in seconds.
+#[derive(Clone, Copy, Debug)]
+struct InFlight {
+    due_s: f64,
+    seq: u64,
+    value: f64,
+    t_emit: u64,
+    t_emit_s: f64,
+}
+
+impl PartialEq for InFlight {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == std::cmp::Ordering::Equal
+    }
+}
+impl Eq for InFlight {}
+impl PartialOrd for InFlight {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for InFlight {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.due_s.total_cmp(&o.due_s).then(self.seq.cmp(&o.seq))
+    }
+}
+
+/// The channel's state for a delay in seconds.
+#[derive(Clone, Debug)]
+struct SecondsChannel {
+    sampler: SecondsSampler,
+    /// Rewards in flight, earliest due first.
+    heap: BinaryHeap<Reverse<InFlight>>,
+    /// Emissions made (the next sequence number, = the ledger id).
+    seq: u64,
+    /// Those delivered at the last step (scratch).
+    due: Vec<InFlight>,
 }
 
 /// An environment whose rewards pass through a delay channel.
@@ -64,31 +182,42 @@ pub struct DelayedReward<E> {
     sampler: DelaySampler,
     rng: Rng,
     t: u64,
-    /// Pending sums by due step modulo the capacity (a power of two).
-    ring: Vec<f64>,
+    /// Pending rewards by due step modulo the capacity (a power of two).
+    ring: Vec<Slot>,
     /// Pending emission ids by due step (only with a ledger).
     ring_ids: Vec<Vec<u64>>,
+    /// The channel of a delay in seconds (then the ring stays empty).
+    seconds: Option<SecondsChannel>,
     ledger: Option<Ledger>,
     delivered_ids: Vec<u64>,
     emitted_total: f64,
     delivered_total: f64,
+    stats: DelayStats,
 }
 
 impl<E: Env> DelayedReward<E> {
     /// Wraps `env`; `ledger` keeps the ground truth of every emission.
     pub fn new(env: E, dist: &DelayDist, ledger: bool) -> Self {
+        let seconds = dist.as_seconds().map(|d| SecondsChannel {
+            sampler: d.sampler(),
+            heap: BinaryHeap::new(),
+            seq: 0,
+            due: Vec::new(),
+        });
         Self {
             env,
             dist: dist.clone(),
             sampler: dist.sampler(),
             rng: rng_from_seed(0),
             t: 0,
-            ring: vec![0.0; 64],
+            ring: vec![Slot::default(); 64],
             ring_ids: if ledger { vec![Vec::new(); 64] } else { Vec::new() },
+            seconds,
             ledger: ledger.then(Ledger::default),
             delivered_ids: Vec::new(),
             emitted_total: 0.0,
             delivered_total: 0.0,
+            stats: DelayStats::default(),
         }
     }
 
@@ -97,35 +226,47 @@ impl<E: Env> DelayedReward<E> {
     pub fn reset(&mut self, env_seed: u64, delay_seed: u64, start: Start) -> Result<State, EnvError> {
         self.rng = rng_from_seed(delay_seed);
         self.t = 0;
-        self.ring.iter_mut().for_each(|x| *x = 0.0);
+        self.ring.iter_mut().for_each(|x| *x = Slot::default());
         self.ring_ids.iter_mut().for_each(Vec::clear);
+        if let Some(sc) = &mut self.seconds {
+            sc.heap.clear();
+            sc.seq = 0;
+            sc.due.clear();
+        }
         if let Some(l) = &mut self.ledger {
             l.emissions.clear();
         }
         self.delivered_ids.clear();
         self.emitted_total = 0.0;
         self.delivered_total = 0.0;
+        self.stats = DelayStats::default();
         self.env.reset(env_seed, start)
     }
 
     /// Takes one action: the environment emits, the channel schedules, and whatever is
     /// due now is delivered.
     ///
-    /// Small enough to inline into a learning loop: drawing a delay and the ledger's
-    /// bookkeeping are out of line (most steps emit nothing).
+    /// Small enough to inline into a learning loop: drawing a delay, the ledger's
+    /// bookkeeping and the channel of a delay in seconds are out of line (most steps emit
+    /// nothing).
     #[inline]
     pub fn step(&mut self, action: Action) -> Result<DelayedStep, EnvError> {
         let step = self.env.step(action)?;
         let t = self.t;
+        if self.seconds.is_some() {
+            return Ok(self.step_seconds(t, step));
+        }
         let delay = if step.reward != 0.0 { Some(self.emit(t, step.reward)) } else { None };
         let slot = (t as usize) & (self.ring.len() - 1);
-        let delivered = std::mem::take(&mut self.ring[slot]);
-        if self.ledger.is_some() {
-            self.deliver_ids(slot);
+        let delivered = self.ring[slot].sum;
+        if self.ring[slot].n != 0 {
+            self.deliver_slot(t, slot);
+        } else if self.ledger.is_some() {
+            self.delivered_ids.clear();
         }
         self.delivered_total += delivered;
         self.t += 1;
-        Ok(DelayedStep { t, step, delay, delivered })
+        Ok(DelayedStep { t, step, delay, delay_s: None, delivered, time_s: self.env.sim_time_s() })
     }
 
     /// Draws the delay of a non-zero reward emitted at `t` and schedules it.
@@ -136,24 +277,50 @@ impl<E: Env> DelayedReward<E> {
         d
     }
 
-    /// The ledger's ids of the emissions due at `slot` become the delivered ones.
+    /// Delivers the emissions due at `slot` (step `t`): the statistics, and the ledger's
+    /// ids become the delivered ones.
     #[inline(never)]
-    fn deliver_ids(&mut self, slot: usize) {
-        self.delivered_ids.clear();
-        std::mem::swap(&mut self.delivered_ids, &mut self.ring_ids[slot]);
+    fn deliver_slot(&mut self, t: u64, slot: usize) {
+        let now = self.env.sim_time_s();
+        let s = std::mem::take(&mut self.ring[slot]);
+        let n = f64::from(s.n);
+        self.stats.delivered += u64::from(s.n);
+        self.stats.sum_steps += n * t as f64 - s.sum_t;
+        self.stats.sum_s += n * now - s.sum_time;
+        if let Some(l) = &mut self.ledger {
+            self.delivered_ids.clear();
+            std::mem::swap(&mut self.delivered_ids, &mut self.ring_ids[slot]);
+            for &id in &self.delivered_ids {
+                l.emissions[id as usize].due_s = now;
+            }
+        }
     }
 
     fn schedule(&mut self, t: u64, d: u32, value: f64) {
         while d as usize >= self.ring.len() {
             self.grow();
         }
+        let now = self.env.sim_time_s();
         let due = t + u64::from(d);
         let slot = (due as usize) & (self.ring.len() - 1);
-        self.ring[slot] += value;
+        let r = &mut self.ring[slot];
+        r.sum += value;
+        r.n += 1;
+        r.sum_t += t as f64;
+        r.sum_time += now;
         self.emitted_total += value;
         if let Some(l) = &mut self.ledger {
             let id = l.emissions.len() as u64;
-            l.emissions.push(Emission { id, t_emit: t, value, delay: d, due });
+            l.emissions.push(Emission {
+                id,
+                t_emit: t,
+                value,
+                delay: d,
+                due,
+                t_emit_s: now,
+                drawn_s: f64::NAN,
+                due_s: f64::NAN,
+            });
             self.ring_ids[slot].push(id);
         }
     }
@@ -162,7 +329,7 @@ impl<E: Env> DelayedReward<E> {
     fn grow(&mut self) {
         let old = self.ring.len();
         let new = old * 2;
-        let mut ring = vec![0.0; new];
+        let mut ring = vec![Slot::default(); new];
         let mut ids = if self.ledger.is_some() { vec![Vec::new(); new] } else { Vec::new() };
         for due in self.t..self.t + old as u64 {
             let (o, n) = ((due as usize) & (old - 1), (due as usize) & (new - 1));
@@ -173,6 +340,68 @@ impl<E: Env> DelayedReward<E> {
         }
         self.ring = ring;
         self.ring_ids = ids;
+    }
+
+    /// One step of the channel of a delay in seconds: the reward emitted now (at the end
+    /// of step `t`) is scheduled at now + d, then everything due by now is delivered,
+    /// summed in emission order.
+    #[inline(never)]
+    fn step_seconds(&mut self, t: u64, step: Step) -> DelayedStep {
+        let now = self.env.sim_time_s();
+        let sc = self.seconds.as_mut().expect("a channel in seconds");
+        let mut delay_s = None;
+        if step.reward != 0.0 {
+            let d = sc.sampler.sample(&mut self.rng);
+            delay_s = Some(d);
+            let seq = sc.seq;
+            sc.seq += 1;
+            sc.heap.push(Reverse(InFlight {
+                due_s: now + d,
+                seq,
+                value: step.reward,
+                t_emit: t,
+                t_emit_s: now,
+            }));
+            self.emitted_total += step.reward;
+            if let Some(l) = &mut self.ledger {
+                l.emissions.push(Emission {
+                    id: seq,
+                    t_emit: t,
+                    value: step.reward,
+                    delay: Emission::PENDING,
+                    due: u64::MAX,
+                    t_emit_s: now,
+                    drawn_s: d,
+                    due_s: f64::NAN,
+                });
+            }
+        }
+        sc.due.clear();
+        while let Some(Reverse(top)) = sc.heap.peek()
+            && top.due_s <= now + TIME_TOLERANCE_S
+        {
+            sc.due.push(*top);
+            sc.heap.pop();
+        }
+        sc.due.sort_unstable_by_key(|e| e.seq);
+        let mut delivered = 0.0;
+        self.delivered_ids.clear();
+        for e in &sc.due {
+            delivered += e.value;
+            self.stats.delivered += 1;
+            self.stats.sum_steps += (t - e.t_emit) as f64;
+            self.stats.sum_s += now - e.t_emit_s;
+            if let Some(l) = &mut self.ledger {
+                let em = &mut l.emissions[e.seq as usize];
+                em.due = t;
+                em.delay = u32::try_from(t - e.t_emit).unwrap_or(u32::MAX - 1);
+                em.due_s = now;
+                self.delivered_ids.push(e.seq);
+            }
+        }
+        self.delivered_total += delivered;
+        self.t += 1;
+        DelayedStep { t, step, delay: delay_s.map(|_| Emission::PENDING), delay_s, delivered, time_s: now }
     }
 
     /// The next decision step.
@@ -201,7 +430,25 @@ impl<E: Env> DelayedReward<E> {
     }
     /// Sum of the rewards emitted but not yet delivered.
     pub fn in_flight(&self) -> f64 {
-        self.ring.iter().sum()
+        match &self.seconds {
+            Some(sc) => {
+                let mut v: Vec<&InFlight> = sc.heap.iter().map(|r| &r.0).collect();
+                v.sort_unstable_by_key(|e| e.seq);
+                v.iter().map(|e| e.value).sum()
+            }
+            None => self.ring.iter().map(|s| s.sum).sum(),
+        }
+    }
+    /// How many emissions are in flight.
+    pub fn in_flight_count(&self) -> u64 {
+        match &self.seconds {
+            Some(sc) => sc.heap.len() as u64,
+            None => self.ring.iter().map(|s| u64::from(s.n)).sum(),
+        }
+    }
+    /// The delays of everything delivered so far (kept with or without a ledger).
+    pub fn delay_stats(&self) -> DelayStats {
+        self.stats
     }
     /// The ground-truth ledger, when kept.
     pub fn ledger(&self) -> Option<&Ledger> {

@@ -1,6 +1,7 @@
-//! Reward delay distributions: how many steps after its emission a reward arrives.
+//! Reward delay distributions: how long after its emission a reward arrives, in decision
+//! steps or in seconds of simulated time.
 //!
-//! Spec strings (CLI `--delay`, world and sweep files):
+//! Spec strings (CLI `--delay`, world and sweep files). In steps (the paper):
 //!
 //! | spec | distribution | mean |
 //! |---|---|---|
@@ -11,6 +12,23 @@
 //! | `uniform:LO:HI` | uniform on the integers LO..=HI | (LO+HI)/2 |
 //! | `hist:W0,W1,...` | P(d = k) ∝ Wk (an empirical histogram) | Σ k Wk / Σ Wk |
 //! | `mix:P1*SPEC1+P2*SPEC2` | mixture with weights ∝ Pi | Σ Pi·mean_i / Σ Pi |
+//!
+//! In seconds (a number with the unit `s` or `ms`; printed in `s`):
+//!
+//! | spec | distribution | mean |
+//! |---|---|---|
+//! | `const:2s` | d = 2 s | 2 s |
+//! | `uniform:0s:20s` | uniform on [0 s, 20 s] | (LO+HI)/2 |
+//! | `exponential:4s` | exponential with mean 4 s (also `exp:4s`) | 4 s |
+//! | `lognormal:0.5s:0.8` | ln d ~ N(ln 0.5 s, 0.8²): median 0.5 s, σ of ln d | median·e^{σ²/2} |
+//! | `hist@0.5s:W0,W1,...` | P(k·0.5 s ≤ d < (k+1)·0.5 s) ∝ Wk, uniform within a bin | 0.5 s·Σ (k+½) Wk / Σ Wk |
+//! | `wifi` | one WiFi hop's latency, after Sui et al., MobiSys 2016 ([`seconds::WIFI`]) | 14.4 ms |
+//! | `mix:P1*SPEC1+P2*SPEC2` | mixture of specs in seconds | Σ Pi·mean_i / Σ Pi |
+//!
+//! A mixture is all in steps or all in seconds. A reward delayed by d seconds is delivered
+//! with the first decision that ends at or after its emission time + d
+//! ([`crate::channel::DelayedReward`]); the environment's clock is `Env::sim_time_s` (the
+//! robot's physics; the grid's nominal `step_period_s` per step).
 
 use std::fmt;
 
@@ -19,10 +37,34 @@ use rand_distr::Distribution;
 
 use crate::seed::Rng;
 
+pub mod seconds;
+
+pub use seconds::{SecondsDist, SecondsSampler};
+
 /// Largest mean delay accepted (steps); bigger ones cannot be buffered sensibly.
 pub const MAX_MEAN_DELAY: f64 = 1.0e6;
 
-/// A delay distribution over d ∈ {0, 1, 2, ...} steps.
+/// The unit a delay is drawn in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum DelayUnit {
+    /// Decision steps.
+    Steps,
+    /// Seconds of simulated time.
+    Seconds,
+}
+
+impl DelayUnit {
+    /// The unit's short name (`steps`, `s`).
+    pub fn name(self) -> &'static str {
+        match self {
+            DelayUnit::Steps => "steps",
+            DelayUnit::Seconds => "s",
+        }
+    }
+}
+
+/// A delay distribution over d ∈ {0, 1, 2, ...} steps, or (the variant
+/// [`DelayDist::Seconds`]) over d ≥ 0 seconds of simulated time.
 #[derive(Clone, Debug, PartialEq)]
 pub enum DelayDist {
     /// No delay.
@@ -39,6 +81,8 @@ pub enum DelayDist {
     Empirical(Vec<f64>),
     /// Mixture: (weight, component).
     Mixture(Vec<(f64, DelayDist)>),
+    /// A delay in seconds of simulated time.
+    Seconds(SecondsDist),
 }
 
 /// A delay spec that cannot be used.
@@ -51,8 +95,7 @@ pub struct DelayError {
     pub reason: String,
 }
 
-const ACCEPTED: &str =
-    "use none, const:K, poisson:L, geometric:P, uniform:LO:HI, hist:W0,W1,... or mix:P1*SPEC1+P2*SPEC2";
+const ACCEPTED: &str = "use none, const:K, poisson:L, geometric:P, uniform:LO:HI, hist:W0,W1,... or mix:P1*SPEC1+P2*SPEC2 (steps), or const:2s, uniform:0s:20s, exponential:4s, lognormal:0.5s:0.8, hist@0.5s:W0,W1,..., wifi (seconds)";
 
 impl DelayDist {
     /// Parses a spec string (see the module docs).
@@ -72,7 +115,23 @@ impl DelayDist {
                 .parse::<u32>()
                 .map_err(|_| fail(format!("{what} `{x}` is not a whole number of steps ≥ 0")))
         };
-        let d = match kind.to_ascii_lowercase().as_str() {
+        let kind = kind.to_ascii_lowercase();
+        let in_seconds = matches!(kind.as_str(), "exponential" | "exp" | "lognormal" | "wifi")
+            || kind.starts_with("hist@")
+            || (matches!(kind.as_str(), "const" | "constant" | "uniform")
+                && arg.split(':').any(seconds::has_unit));
+        if in_seconds {
+            let d = seconds::parse(&kind, arg).map_err(&fail)?;
+            return Self::checked(DelayDist::Seconds(d), spec);
+        }
+        if matches!(kind.as_str(), "poisson" | "geometric" | "geom" | "hist" | "empirical")
+            && arg.split([':', ',']).any(seconds::has_unit)
+        {
+            return Err(fail(format!(
+                "{kind} counts decision steps and takes no time unit; for a delay in seconds use const:2s, uniform:0s:20s, exponential:4s, lognormal:0.5s:0.8, hist@0.5s:W0,W1,... or wifi"
+            )));
+        }
+        let d = match kind.as_str() {
             "none" | "0" if arg.is_empty() => DelayDist::None,
             "const" | "constant" => DelayDist::Constant(int(arg, "K")?),
             "poisson" => {
@@ -128,23 +187,60 @@ impl DelayDist {
                         "the mixture weights add up to {sum}; use finite weights, e.g. mix:0.5*poisson:3+0.5*poisson:25"
                     )));
                 }
-                DelayDist::Mixture(parts)
+                let secs: Vec<(f64, SecondsDist)> =
+                    parts.iter().filter_map(|(w, d)| d.as_seconds().map(|d| (*w, d.clone()))).collect();
+                if secs.len() == parts.len() {
+                    DelayDist::Seconds(SecondsDist::Mixture(secs))
+                } else if !secs.is_empty() {
+                    return Err(fail(
+                        "a mixture is all in steps or all in seconds; give every part a time unit, e.g. mix:0.5*const:0s+0.5*exponential:4s".into(),
+                    ));
+                } else {
+                    DelayDist::Mixture(parts)
+                }
             }
             _ => return Err(fail(format!("unknown distribution; {ACCEPTED}"))),
         };
+        Self::checked(d, spec)
+    }
+
+    /// Refuses a distribution whose mean is NaN or too large.
+    fn checked(d: DelayDist, spec: &str) -> Result<DelayDist, DelayError> {
         // A NaN mean (e.g. hist weights whose k·w overflow) is refused too.
-        if d.mean().is_nan() || d.mean() > MAX_MEAN_DELAY {
-            return Err(fail(format!(
-                "the mean delay {} is above the supported {MAX_MEAN_DELAY} steps",
-                d.mean()
-            )));
+        let (m, v) = (d.mean(), d.variance());
+        if m.is_nan() || m > MAX_MEAN_DELAY || (d.unit() == DelayUnit::Seconds && !v.is_finite()) {
+            return Err(DelayError {
+                spec: spec.to_string(),
+                reason: format!(
+                    "the mean delay {m} {} is above the supported {MAX_MEAN_DELAY} {}",
+                    d.unit().name(),
+                    d.unit().name()
+                ),
+            });
         }
         Ok(d)
     }
 
-    /// Mean delay in steps.
+    /// The unit the delay is drawn in.
+    pub fn unit(&self) -> DelayUnit {
+        match self {
+            DelayDist::Seconds(_) => DelayUnit::Seconds,
+            _ => DelayUnit::Steps,
+        }
+    }
+
+    /// The distribution in seconds, if it is one.
+    pub fn as_seconds(&self) -> Option<&SecondsDist> {
+        match self {
+            DelayDist::Seconds(d) => Some(d),
+            _ => None,
+        }
+    }
+
+    /// Mean delay in the distribution's [`unit`](Self::unit) (steps, or seconds).
     pub fn mean(&self) -> f64 {
         match self {
+            DelayDist::Seconds(d) => d.mean(),
             DelayDist::None => 0.0,
             DelayDist::Constant(k) => *k as f64,
             DelayDist::Poisson(l) => *l,
@@ -161,9 +257,10 @@ impl DelayDist {
         }
     }
 
-    /// Variance of the delay in steps².
+    /// Variance of the delay in the distribution's unit, squared.
     pub fn variance(&self) -> f64 {
         match self {
+            DelayDist::Seconds(d) => d.variance(),
             DelayDist::None | DelayDist::Constant(_) => 0.0,
             DelayDist::Poisson(l) => *l,
             DelayDist::Geometric(p) => (1.0 - p) / (p * p),
@@ -192,9 +289,10 @@ impl DelayDist {
         }
     }
 
-    /// P(d = k).
+    /// P(d = k) for a delay in steps; for a delay in seconds, P(k s ≤ d < (k+1) s).
     pub fn pmf(&self, k: u32) -> f64 {
         match self {
+            DelayDist::Seconds(d) => d.cdf(f64::from(k) + 1.0) - d.cdf(f64::from(k)),
             DelayDist::None => f64::from(k == 0),
             DelayDist::Constant(c) => f64::from(k == *c),
             DelayDist::Poisson(l) => {
@@ -243,6 +341,7 @@ impl fmt::Display for DelayDist {
                 let s: Vec<String> = parts.iter().map(|(w, d)| format!("{w}*{d}")).collect();
                 write!(f, "mix:{}", s.join("+"))
             }
+            DelayDist::Seconds(d) => write!(f, "{d}"),
         }
     }
 }
@@ -269,6 +368,9 @@ pub enum DelaySampler {
     Table(Vec<f64>),
     /// Mixture: cumulative weights and components.
     Mixture(Vec<f64>, Vec<DelaySampler>),
+    /// A delay in seconds ([`DelaySampler::sample`] rounds it up to whole seconds; the
+    /// channel draws with [`SecondsSampler::sample`]).
+    Seconds(SecondsSampler),
 }
 
 impl DelaySampler {
@@ -285,6 +387,7 @@ impl DelaySampler {
                 DelaySampler::Geometric(rand_distr::Geometric::new(*p).expect("p validated in (0, 1)"))
             }
             DelayDist::Uniform(lo, hi) => DelaySampler::Uniform(*lo, *hi),
+            DelayDist::Seconds(d) => DelaySampler::Seconds(d.sampler()),
             DelayDist::Empirical(w) => {
                 let s: f64 = w.iter().sum();
                 let mut acc = 0.0;
@@ -312,9 +415,10 @@ impl DelaySampler {
         }
     }
 
-    /// One delay in steps.
+    /// One delay in steps (a delay in seconds: rounded up to whole seconds).
     pub fn sample(&self, rng: &mut Rng) -> u32 {
         match self {
+            DelaySampler::Seconds(s) => s.sample(rng).ceil().min(u32::MAX as f64) as u32,
             DelaySampler::Fixed(k) => *k,
             DelaySampler::Poisson(p) => {
                 let x: f64 = p.sample(rng);

@@ -18,8 +18,8 @@ pub mod stats;
 pub mod world;
 
 pub use ceiling::{Ceiling, epsilon_soft_ceiling};
-pub use channel::{DelayedReward, DelayedStep, Emission, Ledger};
-pub use delay::{DelayDist, DelayError, DelaySampler};
+pub use channel::{DelayStats, DelayedReward, DelayedStep, Emission, Ledger};
+pub use delay::{DelayDist, DelayError, DelaySampler, DelayUnit, SecondsDist, SecondsSampler};
 pub use env::{Action, ContactSample, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace};
 pub use observer::{Observer, RunInfo, StepRecord};
 pub use optimum::{Optimum, optimum};

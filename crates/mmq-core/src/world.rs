@@ -6,6 +6,7 @@
 //! ```toml
 //! name = "paper-3x3"
 //! cell_size = 0.5        # metres
+//! step_period_s = 0.1    # seconds of simulated time per grid step
 //! start = "random"       # "random" (paper) or "respawn"
 //! map = """
 //! G..
@@ -27,6 +28,11 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use crate::env::{Event, Move};
+
+/// The grid's nominal duration of one decision step when the world file does not set
+/// `step_period_s`, seconds. An assumption (the grid logs' time base): a real robot's
+/// cell-to-cell move takes longer, and the robot environment keeps its own clock.
+pub const DEFAULT_STEP_PERIOD_S: f64 = 0.1;
 
 /// Largest accepted map side, in cells.
 pub const MAX_SIDE: usize = 1000;
@@ -119,6 +125,8 @@ struct WorldFile {
     description: Option<String>,
     #[serde(default = "default_cell_size")]
     cell_size: f64,
+    #[serde(default = "default_step_period")]
+    step_period_s: f64,
     #[serde(default = "default_start")]
     start: StartRule,
     map: String,
@@ -129,6 +137,9 @@ struct WorldFile {
 
 fn default_cell_size() -> f64 {
     0.5
+}
+fn default_step_period() -> f64 {
+    DEFAULT_STEP_PERIOD_S
 }
 fn default_start() -> StartRule {
     StartRule::Random
@@ -173,6 +184,9 @@ pub struct World {
     pub rewards: Rewards,
     /// Side of a cell in metres (robot arena scale).
     pub cell_size: f64,
+    /// Simulated seconds one grid step takes (the grid's clock, which delays in seconds
+    /// count; the robot keeps its own physical time).
+    pub step_period_s: f64,
     /// Initial-state rule.
     pub start: StartRule,
     /// The raw `[robot]` table, validated by the robot environment.
@@ -252,6 +266,12 @@ impl World {
             return Err(err(format!(
                 "field `cell_size` = {} is not a size in metres; use a number in (0, 100], e.g. 0.5",
                 crate::stats::compact(raw.cell_size)
+            )));
+        }
+        if !(raw.step_period_s.is_finite() && raw.step_period_s > 0.0 && raw.step_period_s <= 3600.0) {
+            return Err(err(format!(
+                "field `step_period_s` = {} is not a step duration in seconds; use a number in (0, 3600], e.g. 0.1",
+                raw.step_period_s
             )));
         }
         for (field, v) in [
@@ -338,6 +358,7 @@ impl World {
             respawn,
             rewards: raw.rewards,
             cell_size: raw.cell_size,
+            step_period_s: raw.step_period_s,
             start: raw.start,
             robot: raw.robot,
             path: None,
@@ -528,6 +549,8 @@ mod tests {
         assert!(bad("map = \"GxS\"").contains("unknown cell 'x'"));
         assert!(bad("map = \"GGS\"").contains("2 goals"));
         assert!(bad("cell_size = -1\nmap = \"G.S\"").contains("cell_size"));
+        assert!(bad("step_period_s = 0\nmap = \"G.S\"").contains("field `step_period_s` = 0"));
+        assert!(bad("step_period_s = inf\nmap = \"G.S\"").contains("(0, 3600]"));
         assert!(bad("start = \"corner\"\nmap = \"G.S\"").contains("line 1"));
     }
 }

@@ -10,8 +10,9 @@
 use mmq_core::{Action, Env, EnvError, Event, Move, PoseSample, Start, StartRule, State, Step, World};
 use rand::RngExt;
 
-/// Nominal duration of one grid step, seconds (the time base of grid logs).
-pub const STEP_PERIOD_S: f64 = 0.1;
+/// Nominal duration of one grid step when the world does not set `step_period_s`,
+/// seconds (the time base of grid logs; the world's `step_period_s` overrides it).
+pub const STEP_PERIOD_S: f64 = mmq_core::world::DEFAULT_STEP_PERIOD_S;
 
 /// The paper's grid world.
 #[derive(Clone, Debug)]
@@ -88,8 +89,9 @@ impl Env for GridEnv {
         Ok(Step { state: self.state, reward, event, terminated: false, truncated: false })
     }
 
+    /// t × the world's `step_period_s`.
     fn sim_time_s(&self) -> f64 {
-        self.t as f64 * STEP_PERIOD_S
+        self.t as f64 * self.world.step_period_s
     }
 
     fn pose(&self) -> PoseSample {

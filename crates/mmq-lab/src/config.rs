@@ -194,5 +194,10 @@ mod tests {
         c.steps = 10;
         c.delay = "poisson:-2".into();
         assert!(c.validate().unwrap_err().to_string().contains("negative"));
+        c.delay = "exponential:4".into();
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("delay `exponential:4`") && e.contains("e.g. exponential:4s"), "{e}");
+        c.delay = "exponential:4s".into();
+        assert_eq!(c.validate().unwrap().unit(), mmq_core::DelayUnit::Seconds);
     }
 }

@@ -70,6 +70,10 @@ pub struct Trajectory {
     pub curve: Vec<CurveRow>,
     /// Visits of every state during learning.
     pub visits: Vec<u64>,
+    /// The delays of the rewards delivered (steps and seconds).
+    pub delays: mmq_core::channel::DelayStats,
+    /// Simulated time at the end of the last step, seconds.
+    pub sim_time_s: f64,
 }
 
 /// The result of one seed.
@@ -131,7 +135,7 @@ pub fn run_facts(cfg: &RunConfig, world: &World) -> Vec<(String, String)> {
         ("env".to_string(), cfg.env.name().to_string()),
     ];
     match cfg.env {
-        EnvKind::Grid => f.push(("grid_step_period_s".to_string(), mmq_grid::STEP_PERIOD_S.to_string())),
+        EnvKind::Grid => f.push(("grid_step_period_s".to_string(), world.step_period_s.to_string())),
         EnvKind::Robot => match robot_env(world) {
             Ok(env) => {
                 f.extend(env.features());
@@ -307,6 +311,7 @@ fn learn<E: Env>(
             action: d.action,
             next_state: st.step.state,
             reward: st.delivered,
+            time_s: st.time_s,
             truth: needs_truth.then_some(&truth),
         });
         traj.visits[s] += 1;
@@ -341,6 +346,8 @@ fn learn<E: Env>(
         s = st.step.state;
     }
     (ctl.progress)(pending_progress);
+    traj.delays = ch.delay_stats();
+    traj.sim_time_s = ch.env().sim_time_s();
     if !traj.steps_done.is_multiple_of(cfg.window) {
         traj.curve.push(CurveRow {
             step: traj.steps_done,

@@ -85,6 +85,13 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTree
     }
     m.insert("eval/greedy_per_step".into(), r.greedy_per_step);
     m.insert("eval/greedy_fraction_of_optimum".into(), r.greedy_per_step / optimum);
+    // The delays of the rewards delivered, in steps and in seconds of simulated time.
+    if r.run.delays.delivered > 0 {
+        m.insert("delay/delivered".into(), r.run.delays.delivered as f64);
+        m.insert("delay/delivered_mean_steps".into(), r.run.delays.mean_steps());
+        m.insert("delay/delivered_mean_s".into(), r.run.delays.mean_s());
+    }
+    m.insert("time/sim_s".into(), r.run.sim_time_s);
     for (k, v) in ["moved", "wall", "goal", "timeout"].iter().zip(r.run.events) {
         m.insert(format!("events/{k}"), v as f64);
     }

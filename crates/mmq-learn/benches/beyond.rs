@@ -48,6 +48,7 @@ fn run(spec: &LearnerSpec, w: &World) -> f64 {
             action: d.action,
             next_state: st.step.state,
             reward: st.delivered,
+            time_s: st.time_s,
             truth: needs_truth.then_some(&truth),
         });
         total += st.step.reward;

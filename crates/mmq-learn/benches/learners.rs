@@ -45,6 +45,7 @@ fn learn<L: Learner + ?Sized>(learner: &mut L, w: &World, steps: u64) -> f64 {
             action: d.action,
             next_state: st.step.state,
             reward: st.delivered,
+            time_s: st.time_s,
             truth: None,
         });
         total += st.step.reward;

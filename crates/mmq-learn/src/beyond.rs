@@ -104,6 +104,18 @@ pub struct BeyondParams {
     /// as `poisson:13`) instead of letting them estimate it: an ablation that measures
     /// what the estimate costs. `None` (the default) = estimate it.
     pub told_delay: Option<String>,
+    /// `deconv-model-time`: width b of its time bins, seconds (> 0; absent: 0.1 s, the
+    /// grid's default step period). At most the shortest decision's duration, or
+    /// decisions get moved to later bins ([`crate::deconv_model_time`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_bin_s: Option<f64>,
+}
+
+impl BeyondParams {
+    /// The time bin of `deconv-model-time`, seconds.
+    pub fn time_bin(&self) -> f64 {
+        self.time_bin_s.unwrap_or(crate::deconv_model_time::DEFAULT_TIME_BIN_S)
+    }
 }
 
 impl Default for BeyondParams {
@@ -129,6 +141,7 @@ impl Default for BeyondParams {
             kernel_width: 10.0,
             bootstrap: crate::mmq_kernel::Bootstrap::All,
             told_delay: None,
+            time_bin_s: None,
         }
     }
 }
@@ -179,7 +192,15 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
     if b.refit_every == 0 {
         return bad("refit_every", "0".into(), "use at least 1 step between refits, e.g. 250");
     }
-    let deconv = matches!(spec.kind, crate::LearnerKind::DeconvQ | crate::LearnerKind::DeconvModel);
+    if let Some(b) = b.time_bin_s
+        && !(b.is_finite() && b > 0.0 && b <= 3600.0)
+    {
+        return bad("time_bin_s", b.to_string(), "use a bin width in seconds in (0, 3600], e.g. 0.1");
+    }
+    let deconv = matches!(
+        spec.kind,
+        crate::LearnerKind::DeconvQ | crate::LearnerKind::DeconvModel | crate::LearnerKind::DeconvModelTime
+    );
     if deconv && spec.max_delay > 1 << 16 {
         return bad(
             "--max-delay",
@@ -194,6 +215,15 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
         && DelayDist::parse(d).is_err()
     {
         return bad("told_delay", d.clone(), "use a delay spec such as poisson:13 (see --delay)");
+    }
+    if let Some(d) = &b.told_delay
+        && DelayDist::parse(d).is_ok_and(|d| d.unit() == mmq_core::DelayUnit::Seconds)
+    {
+        return bad(
+            "told_delay",
+            d.clone(),
+            "a told delay is a pmf over step lags: give it in steps, e.g. poisson:13 (a delay in seconds is learned by deconv-model-time)",
+        );
     }
     Ok(())
 }

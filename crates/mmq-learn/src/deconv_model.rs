@@ -108,6 +108,11 @@ impl DeconvModel {
         &self.deconv
     }
 
+    /// The deconvolver, mutably (`deconv-model-time` feeds it its idle bins).
+    pub(crate) fn deconvolver_mut(&mut self) -> &mut ValueDeconvolver {
+        &mut self.deconv
+    }
+
     /// The first action of `s` that is a possible delay probe: tried at least
     /// max(m, 1) times, only ever led back to `s`, and R̂ < 0.
     pub fn probe_action(&self, s: State) -> Option<Action> {

@@ -1,5 +1,5 @@
-//! mmq-learn: learners that see only (s, a, s', delivered reward), one file per
-//! algorithm, each reading like the paper with its equation numbers.
+//! mmq-learn: learners that see only (s, a, s', delivered reward, the step's simulated
+//! time), one file per algorithm, each reading like the paper with its equation numbers.
 //!
 //! | learner | file | paper |
 //! |---|---|---|
@@ -12,6 +12,7 @@
 //! | `oracle` | [`oracle`] | true credit from the channel's ledger: an upper bound, no real agent |
 //! | `deconv-q` | [`deconv_q`] + [`deconv`] | Q-learning on deconvolved rewards, delay pmf estimated |
 //! | `deconv-model` | [`deconv_model`] + [`deconv`] | counted model + deconvolved rewards + value iteration |
+//! | `deconv-model-time` | [`deconv_model_time`] | `deconv-model` with its delay pmf over bins of simulated time |
 //!
 //! Architecture invariant: learners know no environment, no physics, no log format;
 //! exploration randomness comes in from the caller's stream.
@@ -20,6 +21,7 @@ pub mod beyond;
 pub mod decode;
 pub mod deconv;
 pub mod deconv_model;
+pub mod deconv_model_time;
 pub mod deconv_q;
 pub mod fixed_delay;
 pub mod mmq;
@@ -70,6 +72,10 @@ pub struct Experience<'a> {
     pub next_state: State,
     /// r_t: the reward delivered at t (a sum of delayed emissions, maybe 0).
     pub reward: f64,
+    /// Simulated time at the end of step t, seconds since the run started (the robot's
+    /// physical clock; the grid's t × its nominal step period). Learners that count
+    /// steps ignore it.
+    pub time_s: f64,
     /// Ground truth, given only to learners whose [`Learner::needs_truth`] is true.
     pub truth: Option<&'a Truth>,
 }
@@ -120,5 +126,5 @@ pub(crate) fn max_of(xs: &[f64]) -> f64 {
 /// Test helper: the experience of step `t`, (s, a) → s2 with delivered reward `r`, no truth.
 #[cfg(test)]
 pub(crate) fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-    Experience { t, state: s, action: a, next_state: s2, reward: r, truth: None }
+    Experience { t, state: s, action: a, next_state: s2, reward: r, time_s: (t + 1) as f64, truth: None }
 }

@@ -120,7 +120,15 @@ mod tests {
     use crate::Truth;
 
     fn exp<'a>(t: u64, s: State, a: Action, s2: State, r: f64, truth: &'a Truth) -> Experience<'a> {
-        Experience { t, state: s, action: a, next_state: s2, reward: r, truth: Some(truth) }
+        Experience {
+            t,
+            state: s,
+            action: a,
+            next_state: s2,
+            reward: r,
+            time_s: (t + 1) as f64,
+            truth: Some(truth),
+        }
     }
 
     /// A hand-made ground truth: the +10 of t = 0 arrives at t = 2 together with the −1

@@ -60,6 +60,8 @@ pub enum LearnerKind {
     DeconvQ,
     /// Counted transitions, deconvolved rewards, value iteration.
     DeconvModel,
+    /// `deconv-model` with its delay pmf over bins of simulated time.
+    DeconvModelTime,
 }
 
 /// Name and one-line description of every learner, in `mmq learners` order.
@@ -111,6 +113,11 @@ pub fn catalogue() -> Vec<(LearnerKind, &'static str, &'static str)> {
             "deconv-model",
             "model-based: counted transitions + deconvolved R̂(s,a) with an online delay-pmf estimate, value iteration every step, delay probes while the estimate is imprecise",
         ),
+        (
+            LearnerKind::DeconvModelTime,
+            "deconv-model-time",
+            "deconv-model with the delay pmf over bins of simulated time (time_bin_s seconds) instead of step lags: for delays in seconds and decisions of variable duration",
+        ),
     ]
 }
 
@@ -140,7 +147,7 @@ pub struct LearnerSpec {
     /// λ̂ of the fixed-delay learner, steps.
     pub lambda_hat: usize,
     /// λ̂max of MMQ, steps (N = λ̂max + 1 models; paper: 50); also the largest delay the
-    /// deconvolving learners consider.
+    /// deconvolving learners consider (`deconv-model-time`: in time bins).
     pub max_delay: usize,
     /// Parameters of the learners beyond the paper (traces, deconvolution).
     #[serde(default)]
@@ -229,7 +236,12 @@ impl LearnerSpec {
             LearnerKind::QLambda | LearnerKind::SarsaLambda | LearnerKind::Oracle => sa,
             // Q, R̂ and the lag statistics of every pair (worst case: all pairs visited),
             // once per reward value when decoding (worst case: MAX_VALUES of them).
-            LearnerKind::DeconvQ | LearnerKind::DeconvModel => {
+            LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime => {
+                let sa = if self.kind == LearnerKind::DeconvModelTime {
+                    sa + num_actions as u128 // the idle state
+                } else {
+                    sa
+                };
                 let copies = if self.beyond.decode_values { crate::decode::MAX_VALUES as u128 } else { 1 };
                 2 * sa
                     + copies
@@ -295,6 +307,18 @@ impl LearnerSpec {
                     rate: self.beyond.probe_rate,
                     precision: self.beyond.probe_precision,
                 },
+                num_states,
+                num_actions,
+            )),
+            LearnerKind::DeconvModelTime => Box::new(crate::deconv_model_time::DeconvModelTime::new(
+                p,
+                crate::beyond::deconv_config(self)?,
+                self.beyond.optimism_visits,
+                crate::deconv_model::Probes {
+                    rate: self.beyond.probe_rate,
+                    precision: self.beyond.probe_precision,
+                },
+                self.beyond.time_bin(),
                 num_states,
                 num_actions,
             )),
