@@ -70,7 +70,7 @@ def test_rewards_in_flight_at_truncation(mode):
     # after 6 steps.
     env = gym.make(
         "mmq/Grid-v0", world="paper-3x3", delay="const:5", start="respawn",
-        in_flight=mode, max_episode_steps=6,
+        in_flight=mode, max_episode_steps=6, episode_steps=6,
     )
     env.reset(seed=0)
     steps = walk(env, [N, N, W, W, N, N])
@@ -90,6 +90,14 @@ def test_rewards_in_flight_at_truncation(mode):
         # fourth step of the next episode.
         assert first == [0.0] * 6
         assert second == [0.0, 0.0, 0.0, 10.0, 0.0]
+
+
+def test_flush_needs_the_episode_length():
+    with pytest.raises(mmq.ConfigError, match="episode_steps"):
+        gym.make("mmq/Grid-v0", in_flight="flush")
+    env = gym.make("mmq/Grid-v0", world="paper-3x3", episode_steps=3, max_episode_steps=-1)
+    env.reset(seed=0)
+    assert [env.step(0)[3] for _ in range(3)] == [False, False, True]
 
 
 def test_same_seed_same_trajectory_and_seeds_differ():

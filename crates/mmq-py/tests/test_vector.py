@@ -10,7 +10,7 @@ def single_rollouts(env_id, n, seed, actions, limit, **kw):
     truncation (next-step autoreset: that step reports the new state, reward 0)."""
     out_obs, out_rew, out_trunc = [], [], []
     for i in range(n):
-        env = gym.make(env_id, max_episode_steps=limit, **kw)
+        env = gym.make(env_id, max_episode_steps=limit, episode_steps=limit, **kw)
         env.reset(seed=seed + i)
         obs, rew, trunc = [], [], []
         done = False

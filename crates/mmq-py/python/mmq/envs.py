@@ -49,6 +49,10 @@ class MmqEnv(gym.Env):
         preset, profile, overrides: robot only; set ``preset``, ``profile`` and any field
             of the world's ``[robot]`` table (``{"max_speed_mps": 0.15, "noise.slip": 0.02}``;
             dotted keys reach nested tables).
+        episode_steps: the env's own episode length: at that step it reports
+            ``truncated`` itself (as the ``TimeLimit`` of ``gym.make(...,
+            max_episode_steps=N)`` does, which the environment cannot see). Needed by
+            ``in_flight="flush"``; ``None``: no limit of its own.
         render_mode: ``None`` or ``"ansi"`` (the map with the agent as ``A``).
     """
 
@@ -66,6 +70,7 @@ class MmqEnv(gym.Env):
         preset: str | None = None,
         profile: str | None = None,
         overrides: dict[str, Any] | None = None,
+        episode_steps: int | None = None,
         render_mode: str | None = None,
     ):
         if observation not in OBSERVATIONS:
@@ -76,6 +81,20 @@ class MmqEnv(gym.Env):
             raise _mmq.ConfigError(
                 f"render_mode: `{render_mode}` is not accepted; use None or \"ansi\""
             )
+        if episode_steps is not None and (
+            isinstance(episode_steps, bool) or not isinstance(episode_steps, (int, np.integer))
+            or episode_steps < 1
+        ):
+            raise _mmq.ConfigError(
+                f"episode_steps: {episode_steps!r} is not accepted; use a positive number of steps or None"
+            )
+        if in_flight == "flush" and episode_steps is None:
+            raise _mmq.ConfigError(
+                "in_flight: \"flush\" delivers the rewards in flight at the step that ends the "
+                "episode, which the environment must know: pass episode_steps=N (the time "
+                "limit, as gym.make's max_episode_steps=N)"
+            )
+        self.episode_steps = None if episode_steps is None else int(episode_steps)
         self._core = _mmq.EnvCore(
             self._kind, str(world), str(delay), start, in_flight, preset, profile, overrides
         )
@@ -98,7 +117,7 @@ class MmqEnv(gym.Env):
                 {
                     "state": spaces.Discrete(n),
                     "pose": spaces.Box(lo, hi, dtype=np.float64),
-                    "time": spaces.Box(0.0, np.inf, shape=(1,), dtype=np.float64),
+                    "time": spaces.Box(0.0, 1e15, shape=(1,), dtype=np.float64),
                 }
             )
         self._seed: int | None = None
@@ -116,10 +135,6 @@ class MmqEnv(gym.Env):
             [min(max(x, 0.0), w), min(max(y, 0.0), h), math.remainder(theta, 2 * math.pi)]
         )
         return {"state": state, "pose": pose, "time": np.array([self._core.time_s])}
-
-    def _limit(self) -> int | None:
-        spec = getattr(self, "spec", None)
-        return None if spec is None else spec.max_episode_steps
 
     # -- Gymnasium API -----------------------------------------------------------------
 
@@ -160,8 +175,9 @@ class MmqEnv(gym.Env):
             info["true_state"] = true_state
             info["believed_state"] = s
         reward = delivered
-        limit = self._limit()
-        if self.in_flight == "flush" and limit is not None and self._elapsed >= limit:
+        limit = self.episode_steps
+        truncated = limit is not None and self._elapsed >= limit
+        if truncated and self.in_flight == "flush":
             flushed = self._core.pending()
             info["flushed"] = [
                 {"t_emit": te, "delay_steps": d, "delay_s": ds, "value": v}
@@ -169,7 +185,7 @@ class MmqEnv(gym.Env):
             ]
             reward += self._core.in_flight()
         info["in_flight"] = self._core.in_flight()
-        return self._obs(s), float(reward), False, False, info
+        return self._obs(s), float(reward), False, truncated, info
 
     def render(self):
         if self.render_mode != "ansi":

@@ -22,7 +22,8 @@ class MmqVectorEnv(VectorEnv):
     """N environments of one world, delay and robot configuration.
 
     Args are those of :class:`mmq.envs.MmqEnv` (observations are states only), plus
-    ``num_envs``, ``max_episode_steps`` (``None``: never truncated) and ``threads``
+    ``num_envs``, ``max_episode_steps`` (``None``: never truncated; ``episode_steps``
+    is accepted as its synonym) and ``threads``
     (step the environments on threads; default: for robots only).
 
     ``step`` returns NumPy arrays; ``info`` holds ``"emitted"``, the rewards emitted this
@@ -46,6 +47,7 @@ class MmqVectorEnv(VectorEnv):
         profile: str | None = None,
         overrides: dict[str, Any] | None = None,
         threads: bool | None = None,
+        episode_steps: int | None = None,
         render_mode: str | None = None,
     ):
         if observation != "state":
@@ -55,6 +57,13 @@ class MmqVectorEnv(VectorEnv):
             )
         if render_mode is not None:
             raise _mmq.ConfigError("render_mode: vector environments do not render; use None")
+        if max_episode_steps is None:
+            max_episode_steps = episode_steps
+        elif episode_steps is not None and episode_steps != max_episode_steps:
+            raise _mmq.ConfigError(
+                f"episode_steps: {episode_steps} differs from max_episode_steps = "
+                f"{max_episode_steps}; give one of them"
+            )
         self._core = _mmq.VecCore(
             self._kind,
             str(world),
