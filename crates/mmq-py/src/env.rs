@@ -28,7 +28,10 @@ impl InFlight {
             "drop" => Ok(InFlight::Drop),
             "flush" => Ok(InFlight::Flush),
             "carry" => Ok(InFlight::Carry),
-            _ => Err(config_err("in_flight", format!("`{s}` is not accepted; use \"drop\", \"flush\" or \"carry\""))),
+            _ => Err(config_err(
+                "in_flight",
+                format!("`{s}` is not accepted; use \"drop\", \"flush\" or \"carry\""),
+            )),
         }
     }
 }
@@ -240,8 +243,17 @@ impl EnvCore {
     fn step(
         &mut self,
         action: &Bound<'_, PyAny>,
-    ) -> PyResult<(usize, f64, f64, Option<u32>, &'static str, u64, f64, Vec<(u64, u32, f64, f64)>, Option<usize>)>
-    {
+    ) -> PyResult<(
+        usize,
+        f64,
+        f64,
+        Option<u32>,
+        &'static str,
+        u64,
+        f64,
+        Vec<(u64, u32, f64, f64)>,
+        Option<usize>,
+    )> {
         let a = action_arg(action, self.inner.ch.env().num_actions())?;
         let st = self.inner.step(a).map_err(env_err)?;
         let deliveries =

@@ -50,7 +50,8 @@ pub fn learner_spec(name: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResul
         for (k, v) in settings.iter() {
             let key: String = k.extract()?;
             let path = setting_path(&key);
-            let mut t = value.as_table_mut().ok_or_else(|| config_err("learner", "internal: spec is no table"))?;
+            let mut t =
+                value.as_table_mut().ok_or_else(|| config_err("learner", "internal: spec is no table"))?;
             for p in &path[..path.len() - 1] {
                 t = t
                     .entry((*p).to_string())
@@ -200,11 +201,7 @@ impl LearnerCore {
     /// The learner's tables: [(name, shape, flat data in C order)].
     #[allow(clippy::type_complexity)]
     fn tables<'py>(&self, py: Python<'py>) -> Vec<(String, Vec<usize>, Bound<'py, PyArray1<f64>>)> {
-        self.learner
-            .tables()
-            .into_iter()
-            .map(|t| (t.name, t.shape, PyArray1::from_vec(py, t.data)))
-            .collect()
+        self.learner.tables().into_iter().map(|t| (t.name, t.shape, PyArray1::from_vec(py, t.data))).collect()
     }
 
     /// Learner-specific figures.
@@ -252,7 +249,12 @@ pub fn run_json(
     let env = match env {
         "grid" => EnvKind::Grid,
         "robot" => EnvKind::Robot,
-        _ => return Err(config_err("env", format!("`{env}` is not an environment; use \"grid\" or \"robot\""))),
+        _ => {
+            return Err(config_err(
+                "env",
+                format!("`{env}` is not an environment; use \"grid\" or \"robot\""),
+            ));
+        }
     };
     if record && out.is_none() {
         return Err(config_err("record", "a recording needs an output folder; pass out=\"DIR\""));

@@ -14,10 +14,13 @@ fn col<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, PyArray
 /// Reads `path`; returns a dict of column dicts (`decisions`, `emitted`, `delivered`,
 /// `poses`) plus `metadata`, `complete` and `stop`.
 #[pyfunction]
-pub fn read_recording_columns<'py>(py: Python<'py>, path: std::path::PathBuf) -> PyResult<Bound<'py, PyDict>> {
-    let log = py
-        .detach(|| mmq_log::read_log(&path))
-        .map_err(|e| config_err("file", format!("{e}; pass the path of an .mcap file written by --record")))?;
+pub fn read_recording_columns<'py>(
+    py: Python<'py>,
+    path: std::path::PathBuf,
+) -> PyResult<Bound<'py, PyDict>> {
+    let log = py.detach(|| mmq_log::read_log(&path)).map_err(|e| {
+        config_err("file", format!("{e}; pass the path of an .mcap file written by --record"))
+    })?;
     let out = PyDict::new(py);
 
     let d = &log.decisions;

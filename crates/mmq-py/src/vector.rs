@@ -161,7 +161,10 @@ impl VecCore {
     /// Resets every sub-environment from its master seed; returns the states.
     fn reset<'py>(&mut self, py: Python<'py>, seeds: Vec<u64>) -> PyResult<Bound<'py, PyArray1<i64>>> {
         if seeds.len() != self.slots.len() {
-            return Err(config_err("seed", format!("{} seeds for {} environments", seeds.len(), self.slots.len())));
+            return Err(config_err(
+                "seed",
+                format!("{} seeds for {} environments", seeds.len(), self.slots.len()),
+            ));
         }
         let mut states = Vec::with_capacity(seeds.len());
         for (slot, &seed) in self.slots.iter_mut().zip(&seeds) {
