@@ -201,22 +201,46 @@ impl VecCore {
                 "action {bad} is out of range; use integers in 0..{na}"
             )));
         }
-        let acts: Vec<usize> = acts.iter().map(|&a| a as usize).collect();
         let (limit, threads) = (self.limit, self.threads && n > 1);
         let slots = &mut self.slots;
-        let outs: Result<Vec<Out>, mmq_core::EnvError> = py.detach(|| {
+        let mut states = vec![0i64; n];
+        let mut rewards = vec![0.0f64; n];
+        let mut truncated = vec![false; n];
+        let mut emitted = vec![0.0f64; n];
+        let res: Result<(), mmq_core::EnvError> = py.detach(|| {
+            type Row<'a> =
+                (((((&'a mut Slot, &'a i64), &'a mut i64), &'a mut f64), &'a mut bool), &'a mut f64);
+            let one = |(((((s, &a), st), r), tr), em): Row<'_>| {
+                let o = s.step(a as usize, limit)?;
+                (*st, *r, *tr, *em) = (o.state, o.reward, o.truncated, o.emitted);
+                Ok(())
+            };
             if threads {
-                slots.par_iter_mut().zip(acts.par_iter()).map(|(s, &a)| s.step(a, limit)).collect()
+                slots
+                    .par_iter_mut()
+                    .zip(acts.par_iter())
+                    .zip(states.par_iter_mut())
+                    .zip(rewards.par_iter_mut())
+                    .zip(truncated.par_iter_mut())
+                    .zip(emitted.par_iter_mut())
+                    .try_for_each(one)
             } else {
-                slots.iter_mut().zip(&acts).map(|(s, &a)| s.step(a, limit)).collect()
+                slots
+                    .iter_mut()
+                    .zip(acts)
+                    .zip(states.iter_mut())
+                    .zip(rewards.iter_mut())
+                    .zip(truncated.iter_mut())
+                    .zip(emitted.iter_mut())
+                    .try_for_each(one)
             }
         });
-        let outs = outs.map_err(env_err)?;
+        res.map_err(env_err)?;
         Ok((
-            PyArray1::from_iter(py, outs.iter().map(|o| o.state)),
-            PyArray1::from_iter(py, outs.iter().map(|o| o.reward)),
-            PyArray1::from_iter(py, outs.iter().map(|o| o.truncated)),
-            PyArray1::from_iter(py, outs.iter().map(|o| o.emitted)),
+            PyArray1::from_vec(py, states),
+            PyArray1::from_vec(py, rewards),
+            PyArray1::from_vec(py, truncated),
+            PyArray1::from_vec(py, emitted),
         ))
     }
 
