@@ -189,12 +189,61 @@ pub fn robot_world(
     Ok(w)
 }
 
+/// Which robot settings the caller gave: `preset`, `profile`, the `overrides` keys.
+#[derive(Clone, Debug, Default)]
+pub struct Edits {
+    /// `preset` was given.
+    pub preset: bool,
+    /// `profile` was given.
+    pub profile: bool,
+    /// The keys of `overrides`.
+    pub keys: Vec<String>,
+}
+
+impl Edits {
+    /// The edits of these arguments.
+    pub fn of(preset: Option<&str>, profile: Option<&str>, overrides: Option<&Bound<'_, PyDict>>) -> Edits {
+        let keys = overrides
+            .map(|o| o.keys().iter().filter_map(|k| k.extract::<String>().ok()).collect())
+            .unwrap_or_default();
+        Edits { preset: preset.is_some(), profile: profile.is_some(), keys }
+    }
+
+    /// Whether anything was given.
+    pub fn any(&self) -> bool {
+        self.preset || self.profile || !self.keys.is_empty()
+    }
+
+    /// The argument a robot error `msg` is about: an override key it names, else
+    /// `profile` or `preset` if it names them, else the world file's table.
+    fn blame(&self, msg: &str) -> &'static str {
+        let top = |k: &String| k.split('.').next().unwrap_or(k).to_string();
+        if self.keys.iter().any(|k| msg.contains(&format!("`{}`", top(k))) || msg.contains(k.as_str())) {
+            "overrides"
+        } else if self.profile && msg.contains("profile") {
+            "profile"
+        } else if self.preset && msg.contains("preset") {
+            "preset"
+        } else if !self.keys.is_empty() {
+            "overrides"
+        } else if self.any() {
+            if self.profile { "profile" } else { "preset" }
+        } else {
+            "world"
+        }
+    }
+}
+
 /// Builds the robot of `world`, naming the argument that made it fail.
-pub fn robot_env(world: &World, edited: bool) -> PyResult<RobotEnv> {
-    let arg = if edited { "preset/profile/overrides" } else { "world" };
-    let cfg = RobotConfig::from_world(world)
-        .map_err(|e| config_err(arg, format!("{e} (the world's [robot] table; see docs/robot.md)")))?;
-    RobotEnv::new(world, cfg).map_err(|e| config_err(arg, e))
+pub fn robot_env(world: &World, edits: &Edits) -> PyResult<RobotEnv> {
+    let cfg = RobotConfig::from_world(world).map_err(|e| {
+        let msg = e.to_string();
+        config_err(edits.blame(&msg), format!("{msg} (the world's [robot] table; see docs/robot.md)"))
+    })?;
+    RobotEnv::new(world, cfg).map_err(|e| {
+        let msg = e.to_string();
+        config_err(edits.blame(&msg), msg)
+    })
 }
 
 /// The grid or the robot, behind one type so that the channel and the vector
@@ -285,8 +334,8 @@ pub struct EnvSpec {
     pub kind: Kind,
     /// The world (with the robot table already edited).
     pub world: World,
-    /// Whether `preset`, `profile` or `overrides` were given.
-    pub edited: bool,
+    /// The robot settings given.
+    pub edits: Edits,
 }
 
 impl EnvSpec {
@@ -300,15 +349,21 @@ impl EnvSpec {
     ) -> PyResult<EnvSpec> {
         let kind = Kind::parse(kind)?;
         let base = load_world(world)?;
-        let edited = preset.is_some() || profile.is_some() || overrides.is_some_and(|o| !o.is_empty());
-        if kind == Kind::Grid && edited {
+        let edits = Edits::of(preset, profile, overrides);
+        if kind == Kind::Grid && edits.any() {
             return Err(config_err(
-                "preset/profile/overrides",
+                if edits.preset {
+                    "preset"
+                } else if edits.profile {
+                    "profile"
+                } else {
+                    "overrides"
+                },
                 "the grid has no robot; use mmq/Robot-v0 for robot settings",
             ));
         }
         let world = robot_world(&base, preset, profile, overrides)?;
-        let spec = EnvSpec { kind, world, edited };
+        let spec = EnvSpec { kind, world, edits };
         spec.build()?; // refuse bad settings now, not at the first reset
         Ok(spec)
     }
@@ -317,7 +372,7 @@ impl EnvSpec {
     pub fn build(&self) -> PyResult<AnyEnv> {
         Ok(match self.kind {
             Kind::Grid => AnyEnv::Grid(GridEnv::new(&self.world)),
-            Kind::Robot => AnyEnv::Robot(Box::new(robot_env(&self.world, self.edited)?)),
+            Kind::Robot => AnyEnv::Robot(Box::new(robot_env(&self.world, &self.edits)?)),
         })
     }
 }

@@ -288,7 +288,7 @@ pub fn run_json(
     };
     cfg.validate().map_err(lab_err)?;
     if env == EnvKind::Robot {
-        crate::config::robot_env(&w, preset.is_some() || profile.is_some() || overrides.is_some())?;
+        crate::config::robot_env(&w, &crate::config::Edits::of(preset, profile, overrides))?;
     }
     let summary = py.detach(|| -> Result<String, mmq_lab::LabError> {
         let stop = AtomicBool::new(false);

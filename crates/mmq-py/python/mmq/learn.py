@@ -112,6 +112,12 @@ def run(
     recordings) are written there as the CLI writes them; read them with
     :func:`mmq.read_run`.
     """
+    for name, value in (("steps", steps), ("seeds", seeds), ("window", window),
+                        ("eval_steps", eval_steps)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+            raise _mmq.ConfigError(
+                f"{name}: {value!r} is not accepted; use a whole number ≥ 0 (see mmq run --help)"
+            )
     text = _mmq.run_json(
         str(world),
         env,
