@@ -161,7 +161,17 @@ impl LearnerCore {
     }
 
     /// Learns from one step (s, a, delivered reward, s'); steps are numbered in call order.
-    fn observe(&mut self, state: i64, action: i64, reward: f64, next_state: i64) -> PyResult<()> {
+    /// `time_s` is the simulated time at the end of the step (`info["time_s"]` of the
+    /// environment; default: the step count × 0.1 s, the grid's default step period).
+    #[pyo3(signature = (state, action, reward, next_state, time_s = None))]
+    fn observe(
+        &mut self,
+        state: i64,
+        action: i64,
+        reward: f64,
+        next_state: i64,
+        time_s: Option<f64>,
+    ) -> PyResult<()> {
         let s = self.check_state("state", state)?;
         let s2 = self.check_state("next_state", next_state)?;
         if action < 0 || action as u64 >= self.n_actions as u64 {
@@ -179,6 +189,7 @@ impl LearnerCore {
             action: action as usize,
             next_state: s2,
             reward,
+            time_s: time_s.unwrap_or((self.t + 1) as f64 * 0.1),
             truth: None,
         });
         self.t += 1;

@@ -52,9 +52,15 @@ class Learner:
         whether the action was exploratory."""
         return self._core.act(state)
 
-    def observe(self, state: int, action: int, reward: float, next_state: int) -> None:
-        """Learns from one step: ``reward`` is the reward delivered at this step."""
-        self._core.observe(int(state), int(action), float(reward), int(next_state))
+    def observe(
+        self, state: int, action: int, reward: float, next_state: int, time_s: float | None = None
+    ) -> None:
+        """Learns from one step: ``reward`` is the reward delivered at this step, ``time_s``
+        the simulated time at its end (``info["sim_time_s"]``; the time-aware learners need
+        it, the others ignore it; default: the step count × 0.1 s)."""
+        self._core.observe(
+            int(state), int(action), float(reward), int(next_state), None if time_s is None else float(time_s)
+        )
 
     def greedy(self, state: int) -> int:
         """The greedy action (no exploration; ties from the evaluation stream)."""
