@@ -62,6 +62,11 @@ pub struct RunConfig {
     /// folder); absent: no recording, and no cost.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub record: Option<RecordSettings>,
+    /// `KEY=VALUE` overrides of the world's `[robot]` table (`--robot`), applied in
+    /// order when the world is loaded (see `mmq_robot::apply_overrides`); the grid
+    /// ignores them once they are checked.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub robot: Vec<String>,
 }
 
 /// What `--record` writes.
@@ -100,6 +105,7 @@ impl Default for RunConfig {
             save_tables: true,
             ledger: false,
             record: None,
+            robot: Vec::new(),
         }
     }
 }
@@ -146,7 +152,13 @@ impl RunConfig {
 
     /// Loads the world file.
     pub fn load_world(&self) -> Result<World, LabError> {
-        Ok(World::load(&self.world)?)
+        let mut world = World::load(&self.world)?;
+        if !self.robot.is_empty() {
+            let table = mmq_robot::apply_overrides(world.robot.as_ref(), &self.robot)
+                .map_err(|e| LabError::EnvBuild(format!("--robot: {e}")))?;
+            world.robot = Some(table);
+        }
+        Ok(world)
     }
 
     /// The configuration as TOML text.

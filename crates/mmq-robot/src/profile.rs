@@ -76,7 +76,7 @@ impl RealisticConfig {
             fix_rate_hz: 4.0,
             fix_sd_m: 0.05,
             fix_sd_rad: 0.05,
-            fix_bias_sd_m: 0.08,
+            fix_bias_sd_m: 0.12,
             fix_bias_sd_rad: 0.03,
             fix_bias_tau_s: 10.0,
             odom_sd_per_sqrt_m: 0.035,
