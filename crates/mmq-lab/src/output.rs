@@ -52,10 +52,10 @@ pub const METRICS_COLUMNS: &str = "seed,step,reward/earned,reward/received,rewar
 /// seed's value for the whole run on each of its rows.
 pub fn metrics_csv(results: &[SeedResult]) -> String {
     let mut out = String::from(METRICS_COLUMNS);
-    let env_keys: Vec<&str> =
-        results.iter().find(|r| !r.env_stats.is_empty()).map_or(Vec::new(), |r| {
-            r.env_stats.iter().map(|(k, _)| k.as_str()).collect()
-        });
+    let env_keys: Vec<&str> = results
+        .iter()
+        .find(|r| !r.env_stats.is_empty())
+        .map_or(Vec::new(), |r| r.env_stats.iter().map(|(k, _)| k.as_str()).collect());
     for k in &env_keys {
         let _ = write!(out, ",env/{k}");
     }

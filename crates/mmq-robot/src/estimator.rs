@@ -46,7 +46,7 @@ pub fn inverse(a: &M3) -> Option<M3> {
         a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0]
     };
     let det = a[0][0] * c(0, 0) + a[0][1] * c(0, 1) + a[0][2] * c(0, 2);
-    if !(det.abs() > 1e-300) || !det.is_finite() {
+    if !det.is_finite() || det.abs() <= 1e-300 {
         return None;
     }
     let mut inv = [[0.0; 3]; 3];
