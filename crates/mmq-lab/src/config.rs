@@ -196,4 +196,22 @@ mod tests {
         c.delay = "poisson:-2".into();
         assert!(c.validate().unwrap_err().to_string().contains("negative"));
     }
+
+    #[test]
+    fn robot_overrides_apply_when_the_world_loads_and_round_trip() {
+        let world = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml"));
+        let c = RunConfig {
+            world,
+            env: EnvKind::Robot,
+            robot: vec!["profile=realistic".into(), "preset=kobuki".into()],
+            ..RunConfig::default()
+        };
+        assert_eq!(RunConfig::from_toml(&c.to_toml(), "c.toml").unwrap(), c);
+        let w = c.load_world().unwrap();
+        let cfg = mmq_robot::RobotConfig::from_world(&w).unwrap();
+        assert_eq!((cfg.profile, cfg.preset), (mmq_robot::Profile::Realistic, mmq_robot::Preset::Kobuki));
+        let bad = RunConfig { robot: vec!["speed=1".into()], ..c };
+        let e = bad.load_world().unwrap_err().to_string();
+        assert!(e.contains("--robot") && e.contains("speed"), "{e}");
+    }
 }
