@@ -173,6 +173,10 @@ pub struct RunArgs {
     /// Record only the last N steps (and the first --record-first N). Needs --record.
     #[arg(long, requires = "record")]
     pub record_last: Option<u64>,
+    /// Override a field of the world's [robot] table, e.g. --robot profile=realistic
+    /// --robot preset=kobuki --robot realistic.fix_rate_hz=2 (repeatable; see docs/robot.md).
+    #[arg(long = "robot", value_name = "KEY=VALUE")]
+    pub robot: Vec<String>,
     /// Output directory.
     #[arg(long, short, default_value = "runs/latest")]
     pub out: PathBuf,

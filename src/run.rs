@@ -41,6 +41,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
             first: a.record_first,
             last: a.record_last,
         }),
+        robot: a.robot.clone(),
     };
     cfg.validate()?;
     Ok(cfg)

@@ -62,6 +62,11 @@ pub struct RunConfig {
     /// folder); absent: no recording, and no cost.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub record: Option<RecordSettings>,
+    /// `KEY=VALUE` overrides of the world's `[robot]` table (`--robot`), applied in
+    /// order when the world is loaded (see `mmq_robot::apply_overrides`); the grid
+    /// ignores them once they are checked.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub robot: Vec<String>,
 }
 
 /// What `--record` writes.
@@ -100,6 +105,7 @@ impl Default for RunConfig {
             save_tables: true,
             ledger: false,
             record: None,
+            robot: Vec::new(),
         }
     }
 }
@@ -157,7 +163,13 @@ impl RunConfig {
 
     /// Loads the world file.
     pub fn load_world(&self) -> Result<World, LabError> {
-        Ok(World::load(&self.world)?)
+        let mut world = World::load(&self.world)?;
+        if !self.robot.is_empty() {
+            let table = mmq_robot::apply_overrides(world.robot.as_ref(), &self.robot)
+                .map_err(|e| LabError::EnvBuild(format!("--robot: {e}")))?;
+            world.robot = Some(table);
+        }
+        Ok(world)
     }
 
     /// The configuration as TOML text.
@@ -199,5 +211,23 @@ mod tests {
         assert!(e.contains("delay `exponential:4`") && e.contains("e.g. exponential:4s"), "{e}");
         c.delay = "exponential:4s".into();
         assert_eq!(c.validate().unwrap().unit(), mmq_core::DelayUnit::Seconds);
+    }
+
+    #[test]
+    fn robot_overrides_apply_when_the_world_loads_and_round_trip() {
+        let world = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml"));
+        let c = RunConfig {
+            world,
+            env: EnvKind::Robot,
+            robot: vec!["profile=realistic".into(), "preset=kobuki".into()],
+            ..RunConfig::default()
+        };
+        assert_eq!(RunConfig::from_toml(&c.to_toml(), "c.toml").unwrap(), c);
+        let w = c.load_world().unwrap();
+        let cfg = mmq_robot::RobotConfig::from_world(&w).unwrap();
+        assert_eq!((cfg.profile, cfg.preset), (mmq_robot::Profile::Realistic, mmq_robot::Preset::Kobuki));
+        let bad = RunConfig { robot: vec!["speed=1".into()], ..c };
+        let e = bad.load_world().unwrap_err().to_string();
+        assert!(e.contains("--robot") && e.contains("speed"), "{e}");
     }
 }

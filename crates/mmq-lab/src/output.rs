@@ -108,17 +108,33 @@ pub fn write_summary(dir: &Path, s: &Summary) -> Result<PathBuf, LabError> {
 /// Column names of `metrics.csv`.
 pub const METRICS_COLUMNS: &str = "seed,step,reward/earned,reward/received,reward/earned_cum,reward/received_cum,baseline/earned_cum,perf/relative";
 
-/// Learning curves of every seed, one row per window.
+/// Learning curves of every seed, one row per window. Environments with summary figures
+/// (the robot's `Env::stats`) add one column per figure, `env/<name>`, holding the
+/// seed's value for the whole run on each of its rows.
 pub fn metrics_csv(results: &[SeedResult]) -> String {
     let mut out = String::from(METRICS_COLUMNS);
+    let env_keys: Vec<&str> = results
+        .iter()
+        .find(|r| !r.env_stats.is_empty())
+        .map_or(Vec::new(), |r| r.env_stats.iter().map(|(k, _)| k.as_str()).collect());
+    for k in &env_keys {
+        let _ = write!(out, ",env/{k}");
+    }
     out.push('\n');
     for r in results {
+        let env_cells: String = env_keys
+            .iter()
+            .map(|k| {
+                let v = r.env_stats.iter().find(|(n, _)| n == k).map(|(_, v)| *v);
+                format!(",{}", v.map_or(String::new(), |v| v.to_string()))
+            })
+            .collect();
         for (i, row) in r.run.curve.iter().enumerate() {
             let base = r.baseline.as_ref().and_then(|b| b.curve.get(i)).map(|b| b.earned_cum);
             let rel = base.filter(|&b| b > 0.0).map(|b| row.earned_cum / b);
             let _ = writeln!(
                 out,
-                "{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{}{env_cells}",
                 r.seed,
                 row.step,
                 row.earned,

@@ -67,6 +67,7 @@ impl PaperOptions {
             save_tables: false,
             ledger: false,
             record: None,
+            robot: Vec::new(),
         }
     }
 }

@@ -1,5 +1,7 @@
 //! Primitives per second of the robot on the paper's 9×9 world with uniformly random
-//! actions (noise off, default TurtleBot3 Burger, 60 Hz physics).
+//! actions (default TurtleBot3 Burger, 60 Hz physics): the ideal profile without noise
+//! (the default), with rapier on every step, with actuation noise, and the realistic
+//! profile (odometry, localisation fixes and the filter, noise on as its default).
 //!
 //! Run: `cargo bench -p mmq-robot --bench primitives`. Group `robot`: criterion reports
 //! the time per batch of 100 primitives; primitives/s = 100 / that time (also printed as
@@ -12,7 +14,7 @@ use std::hint::black_box;
 use criterion::{Criterion, Throughput, criterion_group};
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start, World};
-use mmq_robot::{MultiArena, RobotConfig, RobotEnv};
+use mmq_robot::{MultiArena, NoiseConfig, Profile, RobotConfig, RobotEnv};
 use rand::RngExt;
 
 const BATCH: u64 = 100;
@@ -23,10 +25,16 @@ fn primitives(c: &mut Criterion) {
     g.throughput(Throughput::Elements(BATCH));
     // The default, and rapier stepped on every physics step (free flight off) for
     // comparison: both give bit-identical trajectories.
-    for (name, free_flight) in
-        [("paper-9x9 random primitives", true), ("paper-9x9 random primitives, rapier every step", false)]
-    {
-        let cfg = RobotConfig { free_flight, ..RobotConfig::from_world(&world).unwrap() };
+    let ideal = RobotConfig::from_world(&world).unwrap();
+    let realistic =
+        RobotConfig { profile: Profile::Realistic, noise: Some(NoiseConfig::default()), ..ideal.clone() };
+    let ideal_noise = RobotConfig { noise: Some(NoiseConfig::default()), ..ideal.clone() };
+    for (name, cfg) in [
+        ("paper-9x9 random primitives", ideal.clone()),
+        ("paper-9x9 random primitives, rapier every step", RobotConfig { free_flight: false, ..ideal }),
+        ("paper-9x9 random primitives, ideal with noise", ideal_noise),
+        ("paper-9x9 random primitives, realistic", realistic),
+    ] {
         let mut env = RobotEnv::new(&world, cfg).unwrap();
         env.reset(1, Start::World).unwrap();
         let mut rng = rng_from_seed(2);

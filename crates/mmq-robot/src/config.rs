@@ -11,6 +11,8 @@ use std::fmt;
 use mmq_core::World;
 use serde::{Deserialize, Serialize};
 
+use crate::profile::{Profile, RealisticConfig, RealisticTable};
+
 /// Why a robot configuration (or the arena built from it) was rejected.
 ///
 /// Every message names the field, what is wrong and what would be accepted.
@@ -30,6 +32,24 @@ pub enum RobotError {
         /// The value given.
         value: String,
         /// What is wrong with it.
+        problem: String,
+        /// What would be accepted.
+        accepted: String,
+    },
+    /// A `KEY=VALUE` override names no field of the `[robot]` table.
+    #[error("robot override `{key}`: no such field; known fields: {known}")]
+    UnknownKey {
+        /// The key as given (dotted for sub-tables, e.g. `realistic.fix_rate_hz`).
+        key: String,
+        /// The fields accepted at that level.
+        known: String,
+    },
+    /// A `KEY=VALUE` override whose value does not fit the field, or text without `=`.
+    #[error("robot override `{text}`: {problem}; use {accepted}")]
+    BadValue {
+        /// The override as given.
+        text: String,
+        /// What is wrong.
         problem: String,
         /// What would be accepted.
         accepted: String,
@@ -91,6 +111,8 @@ impl Preset {
             heading_tolerance_rad: 0.02,
             free_flight: true,
             noise: None,
+            profile: Profile::Ideal,
+            realistic: RealisticConfig::for_preset(self),
         }
     }
 }
@@ -160,7 +182,7 @@ impl Default for NoiseConfig {
 /// validation), so `toml::from_str::<RobotConfig>("preset = \"kobuki\"")` gives the full
 /// Kobuki configuration.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(try_from = "RobotTable")]
+#[serde(try_from = "RobotTable", into = "RobotTable")]
 pub struct RobotConfig {
     /// The preset the values started from.
     pub preset: Preset,
@@ -199,8 +221,14 @@ pub struct RobotConfig {
     /// the free disc with rapier's own integrator instead: the trajectory is bit-identical
     /// to stepping rapier every time (tested), and several times faster. Default true.
     pub free_flight: bool,
-    /// Actuation noise; `None` (the default) is noise-free.
+    /// Actuation noise; `None` (the default) is noise-free. The realistic profile turns
+    /// it on with the defaults unless the table gives it.
     pub noise: Option<NoiseConfig>,
+    /// How the robot knows its pose (`ideal`, the default, or `realistic`).
+    pub profile: Profile,
+    /// The realistic model's parameters (used by the realistic profile only; written to
+    /// a table only then).
+    pub realistic: RealisticConfig,
 }
 
 impl Default for RobotConfig {
@@ -232,6 +260,40 @@ pub struct RobotTable {
     pub heading_tolerance_rad: Option<f64>,
     pub free_flight: Option<bool>,
     pub noise: Option<NoiseConfig>,
+    pub profile: Option<Profile>,
+    pub realistic: Option<RealisticTable>,
+}
+
+/// The top-level fields of the `[robot]` table (`noise` and `realistic` are sub-tables).
+pub const TABLE_FIELDS: [&str; 19] = [
+    "preset",
+    "wheel_base_m",
+    "radius_m",
+    "mass_kg",
+    "max_speed_mps",
+    "max_turn_rate_radps",
+    "max_accel_mps2",
+    "max_angular_accel_radps2",
+    "wheel_friction",
+    "wall_friction",
+    "dt_s",
+    "actions",
+    "timeout_factor",
+    "position_tolerance_m",
+    "heading_tolerance_rad",
+    "free_flight",
+    "noise",
+    "profile",
+    "realistic",
+];
+
+/// The fields of the `[robot.noise]` table.
+pub const NOISE_FIELDS: [&str; 3] = ["wheel_gain_sd", "slip_probability", "slip_friction_factor"];
+
+impl From<RobotConfig> for RobotTable {
+    fn from(c: RobotConfig) -> RobotTable {
+        c.to_table()
+    }
 }
 
 impl TryFrom<RobotTable> for RobotConfig {
@@ -260,6 +322,23 @@ impl TryFrom<RobotTable> for RobotConfig {
             free_flight
         );
         c.noise = t.noise;
+        c.profile = t.profile.unwrap_or_default();
+        if let Some(r) = &t.realistic {
+            if c.profile == Profile::Ideal {
+                return Err(RobotError::Invalid {
+                    field: "realistic",
+                    value: "a table".into(),
+                    problem: "the realistic model's parameters are given but `profile` is `ideal`".into(),
+                    accepted:
+                        "`profile = \"realistic\"` in the `[robot]` table, or no `[robot.realistic]` table"
+                            .into(),
+                });
+            }
+            c.realistic = r.resolve(c.preset);
+        }
+        if c.profile == Profile::Realistic && c.noise.is_none() {
+            c.noise = Some(NoiseConfig::default());
+        }
         c.validate()?;
         Ok(c)
     }
@@ -275,7 +354,7 @@ fn invalid(field: &'static str, value: f64, problem: impl Into<String>, accepted
 }
 
 /// Checks `lo < v <= hi` (or `lo <= v` when `lo_closed`), finite.
-fn check_range(
+pub(crate) fn check_range(
     field: &'static str,
     v: f64,
     lo: f64,
@@ -439,6 +518,9 @@ impl RobotConfig {
                 "a friction multiplier in (0, 1]",
             )?;
         }
+        if self.profile == Profile::Realistic {
+            self.realistic.validate()?;
+        }
         Ok(())
     }
 
@@ -486,6 +568,9 @@ impl RobotConfig {
             heading_tolerance_rad: Some(self.heading_tolerance_rad),
             free_flight: Some(self.free_flight),
             noise: self.noise,
+            profile: Some(self.profile),
+            realistic: (self.profile == Profile::Realistic)
+                .then(|| RealisticTable::from_config(&self.realistic)),
         }
     }
 

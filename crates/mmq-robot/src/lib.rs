@@ -22,14 +22,26 @@
 pub mod arena;
 pub mod config;
 pub mod controller;
+mod diagnostics;
 mod drive;
 mod env;
+pub mod estimator;
+pub mod localisation;
 pub mod multi;
+pub mod odometry;
+pub mod overrides;
+mod physics;
+mod primitive;
+pub mod profile;
+mod realistic;
+mod robot;
 
 pub use arena::{Wall, walls};
 pub use config::{ActionSet, DEFAULT_DT_S, NoiseConfig, Preset, RobotConfig, RobotError, RobotTable};
 pub use env::RobotEnv;
 pub use multi::MultiArena;
+pub use overrides::apply_overrides;
+pub use profile::{Profile, RealisticConfig, RealisticTable};
 
 /// The rapier2d version this crate was built against.
 pub const RAPIER_VERSION: &str = rapier2d::VERSION;

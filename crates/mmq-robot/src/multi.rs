@@ -41,7 +41,9 @@ use rapier2d::prelude::{
 
 use crate::arena::{Collector, insert_robot, new_world, wall_of};
 use crate::config::{RobotConfig, RobotError};
-use crate::env::{Begin, Core, Next, PrimRun, pressing};
+use crate::physics::pressing;
+use crate::primitive::{Begin, Next, PrimRun};
+use crate::robot::Core;
 
 /// Collision groups of the robots: they meet walls only.
 const ROBOT_GROUPS: InteractionGroups =
@@ -277,7 +279,7 @@ impl MultiArena {
                 slot.failed = true;
                 continue;
             }
-            slot.core.sample_trace(rb);
+            slot.core.after_physics(rb);
             if let Some(run) = slot.run.as_mut() {
                 run.after_physics(&slot.core);
             }
@@ -399,9 +401,21 @@ impl MultiArena {
     /// Moves arena `k`'s trace of the last step into `out` (as
     /// [`mmq_core::Env::take_trace`]).
     pub fn take_trace(&mut self, k: usize, out: &mut StepTrace) {
-        let t = &mut self.slots[k].core.trace;
-        std::mem::swap(t, out);
-        t.poses.clear();
-        t.contacts.clear();
+        let core = &mut self.slots[k].core;
+        std::mem::swap(&mut core.trace, out);
+        core.clear_trace();
+    }
+
+    /// Arena `k`'s pose estimate (as [`mmq_core::Env::pose_estimate`]).
+    pub fn pose_estimate(&self, k: usize) -> Option<PoseSample> {
+        self.slots[k].core.estimate_sample()
+    }
+
+    /// Arena `k`'s true state where it differs from the belief (as
+    /// [`mmq_core::Env::true_state`]).
+    pub fn true_state(&self, k: usize) -> Option<State> {
+        let s = &self.slots[k];
+        s.core.real.as_ref()?;
+        s.core.true_state(&self.phys.bodies[s.robot]).ok()
     }
 }

@@ -5,6 +5,7 @@ mod determinism;
 mod heading;
 mod motion;
 mod multi;
+mod realistic;
 mod trace;
 
 use mmq_core::World;

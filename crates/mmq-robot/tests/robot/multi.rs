@@ -3,7 +3,7 @@
 
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start, StepTrace};
-use mmq_robot::{ActionSet, MultiArena, NoiseConfig, Preset, RobotConfig, RobotEnv};
+use mmq_robot::{ActionSet, MultiArena, NoiseConfig, Preset, Profile, RobotConfig, RobotEnv};
 use rand::RngExt;
 
 /// One (arena, step) record: state, reward bits, event, pose bits, time bits.
@@ -26,7 +26,7 @@ fn canonical(t: &StepTrace) -> String {
     c.sort_by(|a, b| {
         a.time_s.total_cmp(&b.time_s).then_with(|| (&a.wall, a.started).cmp(&(&b.wall, b.started)))
     });
-    format!("{:?} {c:?}", t.poses)
+    format!("{:?} {c:?} {:?} {:?}", t.poses, t.estimates, t.fixes)
 }
 
 /// Runs `k` arenas (seeds `seed0..seed0 + k`) for `n` random primitives in one world and
@@ -112,6 +112,9 @@ fn eight_arenas_equal_eight_envs_bit_for_bit() {
         ("paper-9x9", RobotConfig { free_flight: false, ..noisy() }),
         ("maze-15x15", wild(Preset::Kobuki)),
         ("maze-15x15", wild(Preset::Turtlebot3Burger)),
+        // The realistic profile on 9×9. On the maze it is not exact: arena 1 of seeds
+        // 40–47 ends step 269 a few f32 ulps away from its RobotEnv (docs/robot.md).
+        ("paper-9x9", RobotConfig { profile: Profile::Realistic, ..noisy() }),
     ];
     for (world, cfg) in cases {
         let (diff, waits) = compare(world, cfg.clone(), 8, 300, 40);
