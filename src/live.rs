@@ -22,8 +22,8 @@ pub struct Live {
 }
 
 /// The address flag as a live configuration; a bad address is bad input (exit 3).
-fn config(addr: &str, speed: f64, name: String) -> Result<LiveConfig, Failure> {
-    let addr = mmq_log::live::parse_addr(addr).map_err(crate::input_error)?;
+fn config(flag: &str, addr: &str, speed: f64, name: String) -> Result<LiveConfig, Failure> {
+    let addr = mmq_log::live::parse_addr(addr).map_err(|e| crate::input_error(format!("{flag}: {e}")))?;
     if !(speed.is_finite() && speed >= 0.0) {
         return Err(crate::input_error(format!(
             "--live-speed {speed}: the real-time factor must be a number ≥ 0 (1: real time, 0: no pacing)"
@@ -41,7 +41,7 @@ pub fn start(
     out: &Path,
 ) -> Result<Option<Live>, Failure> {
     let Some(addr) = addr else { return Ok(None) };
-    let c = config(addr, speed, format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world))?;
+    let c = config("--live", addr, speed, format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display()))?;
     let server = LiveServer::start(&c)?;
     eprintln!(
         "live view: ws://{} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {}",
@@ -83,7 +83,7 @@ impl Live {
 /// `mmq replay FILE --serve [ADDR]`: plays the file until Ctrl-C.
 pub fn serve(file: &Path, addr: &str, stop: &AtomicBool) -> Result<(), Failure> {
     let name = format!("mmq replay: {}", file.file_name().map(|n| n.to_string_lossy()).unwrap_or_default());
-    let c = config(addr, 1.0, name)?;
+    let c = config("--serve", addr, 1.0, name)?;
     let server = mmq_log::live::replay::serve_file(file, &c).map_err(|e| match &e {
         mmq_log::LogError::NotMcap { .. } => crate::input_error(e),
         _ => Failure::from(e),

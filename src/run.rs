@@ -50,13 +50,14 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
     let world = cfg.load_world()?;
+    // Before anything is written: a bad address or a port in use stops here.
+    let live = crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate, &cfg, &a.out)?;
     write_config(&a.out, &cfg)?;
     let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
     let pb = progress::bar(total, cfg.learner.kind.name(), a.quiet);
     let progress = |n: u64| pb.inc(n);
     let ctl = Control { stop, progress: &progress };
     let recorders = mmq_lab::record::recorder_factory(&cfg, &a.out);
-    let live = crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate, &cfg, &a.out)?;
     let factory = |seed| match live.as_ref().and_then(|l| l.observer(seed).transpose()) {
         Some(o) => o.map(Some),
         None => recorders(seed),

@@ -255,7 +255,8 @@ impl ReplayServer {
             return Duration::from_millis(10);
         }
         let now = Instant::now();
-        let (wall0, t0) = *p.anchor.get_or_insert((now, p.current));
+        let current = p.current;
+        let (wall0, t0) = *p.anchor.get_or_insert((now, current));
         let speed = f64::from(p.speed);
         // Log time reached by now.
         let reached = t0.saturating_add((now.duration_since(wall0).as_secs_f64() * speed * 1e9) as u64);
