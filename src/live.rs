@@ -41,7 +41,12 @@ pub fn start(
     out: &Path,
 ) -> Result<Option<Live>, Failure> {
     let Some(addr) = addr else { return Ok(None) };
-    let c = config("--live", addr, speed, format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display()))?;
+    let c = config(
+        "--live",
+        addr,
+        speed,
+        format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display()),
+    )?;
     let server = LiveServer::start(&c)?;
     eprintln!(
         "live view: ws://{} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {}",

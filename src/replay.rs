@@ -3,7 +3,6 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-
 use mmq_lab::record::{Verdict, verify};
 
 use crate::Failure;

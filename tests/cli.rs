@@ -191,13 +191,35 @@ mod live {
     #[test]
     fn a_run_with_no_client_completes() {
         let out = tempfile::tempdir().unwrap();
-        let o = mmq(&["run", "-q", "--steps", "2000", "--seeds", "2", "--out", out.path().to_str().unwrap(), "--live", "0", "--record"]);
+        let o = mmq(&[
+            "run",
+            "-q",
+            "--steps",
+            "2000",
+            "--seeds",
+            "2",
+            "--out",
+            out.path().to_str().unwrap(),
+            "--live",
+            "0",
+            "--record",
+        ]);
         let (_, err) = text(&o);
         assert_eq!(o.status.code(), Some(0), "{err}");
         assert!(err.contains("live view: ws://127.0.0.1:"), "{err}");
         // Both seeds recorded; the file of the seed shown live is the file without --live.
         let plain = tempfile::tempdir().unwrap();
-        let o = mmq(&["run", "-q", "--steps", "2000", "--seeds", "2", "--out", plain.path().to_str().unwrap(), "--record"]);
+        let o = mmq(&[
+            "run",
+            "-q",
+            "--steps",
+            "2000",
+            "--seeds",
+            "2",
+            "--out",
+            plain.path().to_str().unwrap(),
+            "--record",
+        ]);
         assert_eq!(o.status.code(), Some(0));
         for seed in ["trajectory-seed0.mcap", "trajectory-seed1.mcap"] {
             let a = std::fs::read(out.path().join(seed)).unwrap();

@@ -64,6 +64,9 @@ fn main() {
     for (t, n) in &counts {
         println!("{t:<24} {n:>9}");
     }
-    println!("{} messages ({bytes} bytes of JSON), {times} time updates in {:.2} s",
-        counts.iter().map(|(_, n)| n).sum::<u64>(), t0.elapsed().as_secs_f64());
+    println!(
+        "{} messages ({bytes} bytes of JSON), {times} time updates in {:.2} s",
+        counts.iter().map(|(_, n)| n).sum::<u64>(),
+        t0.elapsed().as_secs_f64()
+    );
 }

@@ -140,7 +140,10 @@ pub struct LiveServer {
 
 impl std::fmt::Debug for LiveServer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LiveServer").field("addr", &self.addr).field("speed", &self.speed).finish_non_exhaustive()
+        f.debug_struct("LiveServer")
+            .field("addr", &self.addr)
+            .field("speed", &self.speed)
+            .finish_non_exhaustive()
     }
 }
 

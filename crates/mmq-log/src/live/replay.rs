@@ -70,7 +70,13 @@ impl Shared {
     }
 
     fn state(&self, p: &Player, did_seek: bool, request_id: Option<String>) -> PlaybackState {
-        PlaybackState { current_time: p.current, playback_speed: p.speed, status: p.status, did_seek, request_id }
+        PlaybackState {
+            current_time: p.current,
+            playback_speed: p.speed,
+            status: p.status,
+            did_seek,
+            request_id,
+        }
     }
 }
 
@@ -86,7 +92,11 @@ impl ServerListener for Listener {
         }
         let now = s.player.lock().map(|p| p.current).unwrap_or(s.range.0);
         if let Some(m) = s.latched_at(slot, now) {
-            s.channels[slot].log_with_meta_to_sink(&m.data, PartialMetadata { log_time: Some(m.log_time) }, Some(sink));
+            s.channels[slot].log_with_meta_to_sink(
+                &m.data,
+                PartialMetadata { log_time: Some(m.log_time) },
+                Some(sink),
+            );
         }
     }
 
@@ -144,7 +154,9 @@ fn load(ctx: &Arc<Context>, path: &Path) -> Result<(Vec<Arc<RawChannel>>, Vec<Ms
         let slot = match by_id.get(&m.channel.id) {
             Some(&s) => s,
             None => {
-                let mut b = ctx.channel_builder(m.channel.topic.clone()).message_encoding(m.channel.message_encoding.clone());
+                let mut b = ctx
+                    .channel_builder(m.channel.topic.clone())
+                    .message_encoding(m.channel.message_encoding.clone());
                 if let Some(sc) = &m.channel.schema {
                     b = b.schema(Schema::new(sc.name.clone(), sc.encoding.clone(), sc.data.to_vec()));
                 }
@@ -197,8 +209,15 @@ pub fn serve_file(path: &Path, config: &LiveConfig) -> Result<ReplayServer, LogE
         anchor: None,
         reseed: false,
     };
-    let shared =
-        Arc::new(Shared { _ctx: Arc::clone(&ctx), channels, slots, latched, messages, range, player: Mutex::new(player) });
+    let shared = Arc::new(Shared {
+        _ctx: Arc::clone(&ctx),
+        channels,
+        slots,
+        latched,
+        messages,
+        range,
+        player: Mutex::new(player),
+    });
     let listener = Arc::new(Listener(Arc::clone(&shared)));
     let handle = start_server(
         &ctx,

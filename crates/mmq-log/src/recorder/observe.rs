@@ -40,8 +40,7 @@ impl Observer for McapRecorder {
         let ts = m::Time::from_ns(start_ns);
         let arena_json = serde_json::to_vec(&arena_scene(&world, ts)).expect("JSON of a scene");
         let robot_json = serde_json::to_vec(&robot_scene(radius, ts)).expect("JSON of a scene");
-        let estimate_json =
-            serde_json::to_vec(&estimate_scene(radius, ts)).expect("JSON of a scene");
+        let estimate_json = serde_json::to_vec(&estimate_scene(radius, ts)).expect("JSON of a scene");
         let config = &self.config;
         let mut run: BTreeMap<String, String> = BTreeMap::new();
         let mut put = |k: &str, v: String| {
@@ -330,7 +329,11 @@ impl McapRecorder {
             rotation: m::Quaternion::yaw(e.theta),
         };
         self.write(Ch::Tf, time_ns, &tf);
-        let pose = m::PoseInFrame { timestamp: ts, frame_id: "world".into(), pose: m::Pose::planar(e.x, e.y, 0.0, e.theta) };
+        let pose = m::PoseInFrame {
+            timestamp: ts,
+            frame_id: "world".into(),
+            pose: m::Pose::planar(e.x, e.y, 0.0, e.theta),
+        };
         self.write(Ch::PoseEstimate, time_ns, &pose);
     }
 
@@ -338,7 +341,11 @@ impl McapRecorder {
     fn write_fix(&mut self, f: &PoseSample) {
         let time_ns = ns(f.time_s + self.time_offset_s);
         let ts = m::Time::from_ns(time_ns);
-        let pose = m::PoseInFrame { timestamp: ts, frame_id: "world".into(), pose: m::Pose::planar(f.x, f.y, 0.0, f.theta) };
+        let pose = m::PoseInFrame {
+            timestamp: ts,
+            frame_id: "world".into(),
+            pose: m::Pose::planar(f.x, f.y, 0.0, f.theta),
+        };
         self.write(Ch::Fix, time_ns, &pose);
     }
 

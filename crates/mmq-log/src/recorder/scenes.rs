@@ -110,7 +110,6 @@ pub(crate) fn robot_scene(radius: f64, timestamp: m::Time) -> m::SceneUpdate {
     m::SceneUpdate { deletions: Vec::new(), entities: vec![e] }
 }
 
-
 /// A `foxglove.Grid` of one FLOAT32 field per cell, rows from the bottom of the map
 /// (y = 0) up, origin at the arena's bottom-left corner.
 pub(crate) fn heatmap(world: &World, log_time: u64, field: &str, per_cell: &[f64]) -> m::Grid {
@@ -134,7 +133,6 @@ pub(crate) fn heatmap(world: &World, log_time: u64, field: &str, per_cell: &[f64
         data: base64::engine::general_purpose::STANDARD.encode(&bytes),
     }
 }
-
 
 /// The frame of the robot's pose estimate (child of "world" on `/tf`).
 pub(crate) const ESTIMATE_FRAME: &str = "robot_estimate";

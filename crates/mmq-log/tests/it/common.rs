@@ -176,7 +176,12 @@ pub fn run_robot_with(
             trace.poses.push(PoseSample { time_s: t0 + f, x, y, theta: 0.1 * a as f64 });
             if estimating {
                 let (dx, dy, dth) = ESTIMATE_OFFSET;
-                trace.estimates.push(PoseSample { time_s: t0 + f, x: x + dx, y: y + dy, theta: 0.1 * a as f64 + dth });
+                trace.estimates.push(PoseSample {
+                    time_s: t0 + f,
+                    x: x + dx,
+                    y: y + dy,
+                    theta: 0.1 * a as f64 + dth,
+                });
                 if k == 30 {
                     trace.fixes.push(PoseSample { time_s: t0 + f, x: x + 0.01, y, theta: 0.1 * a as f64 });
                 }

@@ -23,7 +23,7 @@ use crate::schemas::check;
 /// A message from the server.
 #[derive(Debug)]
 enum In {
-    Json(Value),
+    Json,
     Data { sub: u32, log_time: u64, payload: Vec<u8> },
     Time(u64),
     Playback { status: u8, current: u64, did_seek: bool },
@@ -37,6 +37,8 @@ struct Client {
     channels: HashMap<String, (u64, Value)>,
     /// Subscription id → topic.
     subs: HashMap<u32, String>,
+    /// The server's `serverInfo`.
+    info: Value,
 }
 
 impl Client {
@@ -47,7 +49,7 @@ impl Client {
         req.headers_mut().insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
         let (ws, resp) = tungstenite::client::client(req, stream).unwrap();
         assert_eq!(resp.headers()["Sec-WebSocket-Protocol"], "foxglove.sdk.v1");
-        let mut c = Self { ws, channels: HashMap::new(), subs: HashMap::new() };
+        let mut c = Self { ws, channels: HashMap::new(), subs: HashMap::new(), info: Value::Null };
         let deadline = Instant::now() + Duration::from_secs(10);
         while c.channels.len() < 5 {
             assert!(Instant::now() < deadline, "no advertisement");
@@ -75,10 +77,16 @@ impl Client {
                         assert_eq!(ch["encoding"], "json");
                         assert_eq!(ch["schemaEncoding"], "jsonschema");
                         let schema = serde_json::from_str(ch["schema"].as_str().unwrap()).unwrap();
-                        self.channels.insert(ch["topic"].as_str().unwrap().into(), (ch["id"].as_u64().unwrap(), schema));
+                        self.channels.insert(
+                            ch["topic"].as_str().unwrap().into(),
+                            (ch["id"].as_u64().unwrap(), schema),
+                        );
                     }
                 }
-                In::Json(v)
+                if v["op"] == "serverInfo" {
+                    self.info = v;
+                }
+                In::Json
             }
             Message::Binary(b) => {
                 let u64_at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
@@ -112,7 +120,11 @@ impl Client {
 
     /// Reads until `want` returns true for a message, or `secs` pass; returns the
     /// messages read, (topic, log time, JSON), each checked against its schema.
-    fn until(&mut self, secs: f64, mut want: impl FnMut(&In, Option<&str>) -> bool) -> (bool, Vec<(String, u64, Value)>) {
+    fn until(
+        &mut self,
+        secs: f64,
+        mut want: impl FnMut(&In, Option<&str>) -> bool,
+    ) -> (bool, Vec<(String, u64, Value)>) {
         let deadline = Instant::now() + Duration::from_secs_f64(secs);
         let mut got = Vec::new();
         while Instant::now() < deadline {
@@ -205,12 +217,14 @@ fn wait_for(flag: &AtomicBool) {
 
 #[test]
 fn a_client_sees_the_run_and_a_late_one_gets_the_arena() {
-    let server = LiveServer::start(&local(0.0)).unwrap();
+    // 50× real time: 1000 steps of 0.1 s in 2 s while the client watches.
+    let server = LiveServer::start(&local(50.0)).unwrap();
     assert!(server.addr().ip().is_loopback() && server.addr().port() != 0);
     let (started, go) = (Arc::new(AtomicBool::new(false)), Arc::new(AtomicBool::new(false)));
-    let run = run_live(&server, 3000, started.clone(), go.clone());
+    let run = run_live(&server, 1000, started.clone(), go.clone());
     wait_for(&started);
     let mut c = Client::connect(server.addr());
+    assert!(c.info["capabilities"].as_array().unwrap().contains(&Value::from("time")), "{}", c.info);
     for t in [topics::TF, topics::ARENA, topics::ROBOT, topics::DECISION, topics::EMITTED, topics::VISITS] {
         assert!(c.channels.contains_key(t), "{t}");
     }
@@ -239,7 +253,7 @@ fn a_client_sees_the_run_and_a_late_one_gets_the_arena() {
     // A second client, late: it gets the arena at once.
     let mut late = Client::connect(server.addr());
     late.subscribe(&[topics::ARENA]);
-    let (ok, got) = late.until(10.0, |_, t| t == Some(topics::ARENA));
+    let (ok, got) = late.until(30.0, |_, t| t == Some(topics::ARENA));
     assert!(ok, "the late client got no arena");
     assert_eq!(got.last().unwrap().2["entities"][0]["id"], "arena");
     run.join().unwrap();
@@ -318,6 +332,11 @@ fn a_served_file_plays_pauses_and_seeks() {
         std::thread::spawn(move || server.run(&stop))
     };
     let mut c = Client::connect(addr);
+    assert!(
+        c.info["capabilities"].as_array().unwrap().contains(&Value::from("playbackControl")),
+        "{}",
+        c.info
+    );
     c.subscribe(&[topics::DECISION, topics::ARENA, topics::TF]);
     // A late subscriber to a paused file gets the arena all the same.
     let (ok, _) = c.until(10.0, |_, t| t == Some(topics::ARENA));

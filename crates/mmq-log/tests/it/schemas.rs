@@ -100,7 +100,10 @@ pub fn check(schema: &Value, v: &Value, path: &str) -> Result<(), String> {
 pub fn foxglove_subset_problems(schema: &Value) -> Vec<String> {
     fn object(s: &Value, path: &str, out: &mut Vec<String>) {
         if s.get("type") != Some(&Value::from("object")) {
-            out.push(format!("{path}: expected \"type\": \"object\", got {}", s.get("type").unwrap_or(&Value::Null)));
+            out.push(format!(
+                "{path}: expected \"type\": \"object\", got {}",
+                s.get("type").unwrap_or(&Value::Null)
+            ));
             return;
         }
         let Some(props) = s.get("properties").and_then(Value::as_object) else {
@@ -110,7 +113,9 @@ pub fn foxglove_subset_problems(schema: &Value) -> Vec<String> {
         for (name, f) in props {
             let p = format!("{path}.{name}");
             if let Some(alts) = f.get("oneOf") {
-                let ok = alts.as_array().is_some_and(|a| a.iter().all(|x| x.get("const").is_some_and(Value::is_number)));
+                let ok = alts
+                    .as_array()
+                    .is_some_and(|a| a.iter().all(|x| x.get("const").is_some_and(Value::is_number)));
                 if !ok {
                     out.push(format!("{p}: oneOf alternatives must be numeric consts"));
                 }
@@ -129,7 +134,10 @@ pub fn foxglove_subset_problems(schema: &Value) -> Vec<String> {
                         Some("boolean" | "number" | "integer") => {}
                         Some("string") if items.get("contentEncoding").is_none() => {}
                         Some("object") => object(items, &format!("{p}[]"), out),
-                        _ => out.push(format!("{p}[]: unsupported array item type {}", items.get("type").unwrap_or(&Value::Null))),
+                        _ => out.push(format!(
+                            "{p}[]: unsupported array item type {}",
+                            items.get("type").unwrap_or(&Value::Null)
+                        )),
                     }
                 }
                 _ => out.push(format!("{p}: unsupported type {}", f.get("type").unwrap_or(&Value::Null))),
@@ -145,11 +153,7 @@ pub fn foxglove_subset_problems(schema: &Value) -> Vec<String> {
 fn schemas_in(path: &Path) -> HashMap<String, Value> {
     let bytes = std::fs::read(path).unwrap();
     let summary = mcap::read::Summary::read(&bytes).unwrap().expect("a summary");
-    summary
-        .schemas
-        .values()
-        .map(|s| (s.name.clone(), serde_json::from_slice(&s.data).unwrap()))
-        .collect()
+    summary.schemas.values().map(|s| (s.name.clone(), serde_json::from_slice(&s.data).unwrap())).collect()
 }
 
 #[test]
@@ -163,9 +167,15 @@ fn the_foxglove_subset_check_refuses_what_foxglove_refuses() {
         (serde_json::json!({"type": ["integer", "null"]}), ".f: unsupported type"),
         (serde_json::json!({"type": "null"}), ".f: unsupported type"),
         (serde_json::json!({"type": "string", "contentEncoding": "hex"}), "contentEncoding"),
-        (serde_json::json!({"type": "array", "items": {"type": ["number", "null"]}}), ".f[]: unsupported array item"),
+        (
+            serde_json::json!({"type": "array", "items": {"type": ["number", "null"]}}),
+            ".f[]: unsupported array item",
+        ),
         (serde_json::json!({"type": "object"}), "without `properties`"),
-        (serde_json::json!({"type": "object", "properties": {"g": {"type": ["string", "null"]}}}), ".f.g: unsupported type"),
+        (
+            serde_json::json!({"type": "object", "properties": {"g": {"type": ["string", "null"]}}}),
+            ".f.g: unsupported type",
+        ),
         (serde_json::json!({"oneOf": [{"const": "a"}]}), "numeric consts"),
     ] {
         let schema = serde_json::json!({"type": "object", "properties": {"f": bad}});
