@@ -11,8 +11,11 @@ use serde_json::Value;
 use crate::common::{self, ESTIMATE_OFFSET};
 use crate::schemas::validate_all;
 
+/// Messages (log time, JSON) by topic.
+type ByTopic = HashMap<String, Vec<(u64, Value)>>;
+
 /// Messages per topic, and the `/tf` messages per child frame.
-fn messages(path: &std::path::Path) -> (HashMap<String, Vec<(u64, Value)>>, HashMap<String, usize>) {
+fn messages(path: &std::path::Path) -> (ByTopic, HashMap<String, usize>) {
     let bytes = std::fs::read(path).unwrap();
     let mut by_topic: HashMap<String, Vec<(u64, Value)>> = HashMap::new();
     let mut frames = HashMap::new();
