@@ -177,6 +177,14 @@ pub struct RunArgs {
     /// --robot preset=kobuki --robot realistic.fix_rate_hz=2 (repeatable; see docs/robot.md).
     #[arg(long = "robot", value_name = "KEY=VALUE")]
     pub robot: Vec<String>,
+    /// Serve the first seed live to the Foxglove app (WebSocket) on ADDR: HOST:PORT or a
+    /// port; default 127.0.0.1:8765, loopback only unless another address is named.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    pub live: Option<String>,
+    /// With --live: seconds of simulated time per second while a client watches
+    /// (1: real time; 0: no pacing). With no client the run is never slowed.
+    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    pub live_speed: f64,
     /// Output directory.
     #[arg(long, short, default_value = "runs/latest")]
     pub out: PathBuf,
@@ -230,6 +238,11 @@ pub struct ReplayArgs {
     /// Last decision step to draw.
     #[arg(long)]
     pub to: Option<u64>,
+    /// Play the file to the Foxglove app (WebSocket) on ADDR, with play, pause, seek and
+    /// speed from the app's timeline: HOST:PORT or a port; default 127.0.0.1:8765.
+    /// Runs until Ctrl-C.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
+    pub serve: Option<String>,
 }
 
 /// Flags of `mmq sweep` (see docs/sweeps.md).

@@ -11,6 +11,7 @@
 
 mod beyond;
 mod cli;
+mod live;
 mod paper;
 mod progress;
 mod replay;
@@ -112,7 +113,7 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
         cli::Command::World(a) => world_cmd::world(a),
         cli::Command::Paper(a) => paper::paper(a, stop),
         cli::Command::Sweep(a) => sweep::sweep(a, stop),
-        cli::Command::Replay(a) => replay::replay(a),
+        cli::Command::Replay(a) => replay::replay(a, stop),
         cli::Command::Learners => {
             for (_, name, desc) in mmq_learn::catalogue() {
                 println!("{name:<16} {desc}");

@@ -1,4 +1,7 @@
-//! `mmq replay FILE`: summary, rendering and bit-for-bit verification of a recorded run.
+//! `mmq replay FILE`: summary, rendering and bit-for-bit verification of a recorded run,
+//! or serving it to the Foxglove app (`--serve`).
+
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_lab::record::{Verdict, verify};
 
@@ -6,7 +9,13 @@ use crate::Failure;
 use crate::cli::ReplayArgs;
 
 /// Runs `mmq replay`.
-pub fn replay(a: ReplayArgs) -> Result<(), Failure> {
+pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    if let Some(addr) = &a.serve {
+        crate::live::serve(&a.file, addr, stop)?;
+        // Ctrl-C is how serving ends: a success, not an interruption.
+        stop.store(false, Ordering::SeqCst);
+        return Ok(());
+    }
     let log = mmq_log::read_log(&a.file).map_err(crate::input_error)?;
     if let Some(stop) = &log.stop {
         eprintln!(

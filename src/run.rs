@@ -51,6 +51,9 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
     let world = cfg.load_world()?;
+    // Before anything is written: a bad address or a port in use stops here.
+    let live =
+        crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
     let replaced = claim_out_dir(&a.out, OutKind::Run)?;
     if replaced > 0 && !a.quiet {
         eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
@@ -60,8 +63,16 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let pb = progress::bar(total, cfg.learner.kind.name(), a.quiet);
     let progress = |n: u64| pb.inc(n);
     let ctl = Control { stop, progress: &progress };
-    let factory = mmq_lab::record::recorder_factory(&cfg, &a.out);
-    let outcome = run_all(&cfg, &world, &factory, ctl)?;
+    let recorders = mmq_lab::record::recorder_factory(&cfg, &a.out);
+    let factory = |seed| match live.as_ref().and_then(|l| l.observer(seed).transpose()) {
+        Some(o) => o.map(Some),
+        None => recorders(seed),
+    };
+    let outcome = run_all(&cfg, &world, &factory, ctl);
+    if let Some(l) = live {
+        l.stop();
+    }
+    let outcome = outcome?;
     pb.finish_and_clear();
     let (summary, _files) = write_results(&a.out, &cfg, &world, &outcome.results, !outcome.interrupted)?;
     print_summary(&summary);

@@ -409,3 +409,64 @@ mod anywhere {
         }
     }
 }
+
+mod live {
+    use super::*;
+
+    /// A port in use stops `mmq run --live` before the run, with one line naming the
+    /// address and the fix (a runtime failure, exit 1), and writes nothing.
+    #[test]
+    fn a_port_in_use_is_one_clear_error() {
+        let taken = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = taken.local_addr().unwrap().to_string();
+        let out = tempfile::tempdir().unwrap();
+        let dir = out.path().join("run");
+        let o = mmq(&["run", "-q", "--steps", "100", "--out", dir.to_str().unwrap(), "--live", &addr]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(&addr) && err.contains("in use"), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(!dir.exists(), "nothing is written when the server cannot start");
+    }
+
+    /// With no client the run goes through as usual and says where it served.
+    #[test]
+    fn a_run_with_no_client_completes() {
+        let out = tempfile::tempdir().unwrap();
+        let o = mmq(&[
+            "run",
+            "-q",
+            "--steps",
+            "2000",
+            "--seeds",
+            "2",
+            "--out",
+            out.path().to_str().unwrap(),
+            "--live",
+            "0",
+            "--record",
+        ]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(0), "{err}");
+        assert!(err.contains("live view: ws://127.0.0.1:"), "{err}");
+        // Both seeds recorded; the file of the seed shown live is the file without --live.
+        let plain = tempfile::tempdir().unwrap();
+        let o = mmq(&[
+            "run",
+            "-q",
+            "--steps",
+            "2000",
+            "--seeds",
+            "2",
+            "--out",
+            plain.path().to_str().unwrap(),
+            "--record",
+        ]);
+        assert_eq!(o.status.code(), Some(0));
+        for seed in ["trajectory-seed0.mcap", "trajectory-seed1.mcap"] {
+            let a = std::fs::read(out.path().join(seed)).unwrap();
+            let b = std::fs::read(plain.path().join(seed)).unwrap();
+            assert!(a == b, "{seed} differs with --live");
+        }
+    }
+}

@@ -1,4 +1,4 @@
-//! The one error type of mmq-log; every variant names the file concerned.
+//! The one error type of mmq-log; every variant names the file or address concerned.
 
 use std::path::PathBuf;
 
@@ -41,4 +41,27 @@ pub enum LogError {
         /// Why (missing attachment, or the world error).
         message: String,
     },
+    /// A live-view address that is not one.
+    #[error("live view address `{addr}`: {reason}")]
+    LiveAddress {
+        /// The address as given.
+        addr: String,
+        /// What is wrong and how to write it.
+        reason: String,
+    },
+    /// The live view server could not start (port in use, address not on this machine).
+    #[error("live view: cannot listen on {addr}: {message}")]
+    LiveServer {
+        /// The address.
+        addr: std::net::SocketAddr,
+        /// The cause, with the fix.
+        message: String,
+    },
+}
+
+impl LogError {
+    /// Whether the error is the user's input (a bad address) rather than the system.
+    pub fn is_input_error(&self) -> bool {
+        matches!(self, Self::LiveAddress { .. })
+    }
 }

@@ -9,11 +9,16 @@
 //! learning events use mmq's own (`mmq.*`). Topics, units and the time base are
 //! documented in `docs/logs.md` and in [`recorder`].
 //!
-//! Architecture invariant: this is the only crate that knows MCAP; it knows no learner
+//! The [`live`] view serves the same messages over Foxglove's WebSocket protocol while a
+//! run goes on, and [`live::replay`] serves a recorded file with playback control.
+//!
+//! Architecture invariant: this is the only crate that knows MCAP and the Foxglove
+//! protocol; it knows no learner
 //! and no physics engine (it sees runs only through `mmq_core`'s observer hooks).
 
 pub mod compare;
 pub mod error;
+pub mod live;
 mod mcap_out;
 pub mod messages;
 pub mod reader;
@@ -24,6 +29,7 @@ mod writer;
 
 pub use compare::{Mismatch, compare};
 pub use error::LogError;
+pub use live::{LiveConfig, LiveServer, LiveTap};
 pub use reader::{LogAttachment, LogContents, PoseStamp, ReadStop, Stamped, TopicInfo, read_log};
 pub use recorder::{
     McapRecorder, OutcomeHandle, RecordOutcome, RecordStats, RecorderConfig, StepWindow, TopicStats,

@@ -34,6 +34,13 @@ pub mod topics {
     pub const VALUE: &str = "/rl/heatmap/value";
     /// Human-readable run notes.
     pub const LOG: &str = "/foxglove/log";
+    /// The robot's own pose estimate in the world frame (robots that control on an
+    /// estimate; `/tf` then also carries it, as the frame "robot_estimate").
+    pub const POSE_ESTIMATE: &str = "/robot/pose_estimate";
+    /// Absolute localisation fixes the robot received, in the world frame.
+    pub const FIX: &str = "/robot/fix";
+    /// The estimate's body outline, in the "robot_estimate" frame, which `/tf` moves.
+    pub const ROBOT_ESTIMATE: &str = "/viz/robot_estimate";
 }
 
 /// JSON schema texts, by schema name.
@@ -62,7 +69,7 @@ pub mod schemas {
 
 /// Every channel of an mmq log: (topic, schema name, schema text), in the order the
 /// recorder registers them.
-pub const CHANNELS: [(&str, &str, &str); 11] = [
+pub const CHANNELS: [(&str, &str, &str); 14] = [
     (topics::TF, "foxglove.FrameTransform", schemas::FRAME_TRANSFORM),
     (topics::POSE, "foxglove.PoseInFrame", schemas::POSE_IN_FRAME),
     (topics::ARENA, "foxglove.SceneUpdate", schemas::SCENE_UPDATE),
@@ -74,7 +81,15 @@ pub const CHANNELS: [(&str, &str, &str); 11] = [
     (topics::CONTACT, "mmq.Contact", schemas::CONTACT),
     (topics::VISITS, "foxglove.Grid", schemas::GRID),
     (topics::VALUE, "foxglove.Grid", schemas::GRID),
+    (topics::POSE_ESTIMATE, "foxglove.PoseInFrame", schemas::POSE_IN_FRAME),
+    (topics::FIX, "foxglove.PoseInFrame", schemas::POSE_IN_FRAME),
+    (topics::ROBOT_ESTIMATE, "foxglove.SceneUpdate", schemas::SCENE_UPDATE),
 ];
+
+/// Topics whose last message stays true until replaced (the scenes, the heat maps): a
+/// live view sends their last message to every new subscriber.
+pub const LATCHED: [&str; 5] =
+    [topics::ARENA, topics::ROBOT, topics::ROBOT_ESTIMATE, topics::VISITS, topics::VALUE];
 
 /// The optional log channel (`foxglove.Log`).
 pub const LOG_CHANNEL: (&str, &str, &str) = (topics::LOG, "foxglove.Log", schemas::LOG);
@@ -450,7 +465,9 @@ pub struct Decision {
     pub action: u64,
     /// Name of a_t.
     pub action_name: String,
-    /// The delay model the learner acted on (MMQ's λ̂*), if any.
+    /// The delay model the learner acted on (MMQ's λ̂*), if any; left out of the JSON
+    /// when there is none (Foxglove's JSON schema support has no `null` type).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub model: Option<u64>,
     /// Exploratory (ε) rather than greedy.
     pub explored: bool,

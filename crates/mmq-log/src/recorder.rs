@@ -10,7 +10,10 @@
 //! - during the step: `/robot/pose` + `/tf` for each kept pose sample (robot: the trace,
 //!   thinned to `pose_rate_hz`, plus its last sample, the pose at the step's end; grid, or
 //!   a step without a trace: one pose at the centre of s_{t+1}, at the step's end) and
-//!   `/sim/contact` for each contact change;
+//!   `/sim/contact` for each contact change; a robot that controls on an estimate adds,
+//!   with each kept pose, its estimate (`/tf` world → robot_estimate,
+//!   `/robot/pose_estimate`; the first one with `/viz/robot_estimate`), and
+//!   `/robot/fix` for each localisation fix received;
 //! - at the step's end: `/rl/reward/emitted` (if a non-zero reward was emitted),
 //!   `/rl/reward/delivered` (if anything was delivered), `/rl/teleport` and a fresh
 //!   `/viz/arena` + `/viz/robot` (after an action in the goal).
@@ -25,6 +28,13 @@
 //! [`RecorderConfig::writer_thread`]), which writes the pose JSON, fills, compresses and
 //! writes the chunks; a flush waits for it and `finish` joins it. The file is the same
 //! byte for byte with or without that thread.
+//!
+//! A recorder can also send every message to a live view ([`McapRecorder::with_live`],
+//! [`McapRecorder::live_only`]; see [`crate::live`]): the same bytes as the file.
+//!
+//! The code is split by concern: this file (configuration, output, finishing),
+//! `observe.rs` (what each observer hook writes), `scenes.rs` (the scene and grid
+//! messages).
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -33,14 +43,17 @@ use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use base64::Engine;
-use mmq_core::{Event, Move, Observer, RunInfo, State, StepRecord, World};
+use mmq_core::{State, World};
 use serde::Serialize;
 
 use crate::error::LogError;
+use crate::live::LiveTap;
 use crate::mcap_out::{ChunkOptions, McapOut};
 use crate::messages::{self as m, CHANNELS, LOG_CHANNEL};
 use crate::writer::{Failure, LogWriter};
+
+mod observe;
+mod scenes;
 
 /// Which steps are recorded: the first `first` steps and the last `last` steps of a run
 /// of `total` steps (everything else is skipped, except heat maps and the running reward
@@ -196,6 +209,9 @@ enum Ch {
     Contact,
     Visits,
     Value,
+    PoseEstimate,
+    Fix,
+    RobotEstimate,
     Log,
 }
 
@@ -210,17 +226,6 @@ fn ns(s: f64) -> u64 {
     if s.is_finite() && s > 0.0 { (s * 1e9).round() as u64 } else { 0 }
 }
 
-/// Heading of a grid move: E 0, N π/2, W π, S −π/2.
-fn move_heading(a: usize) -> Option<f64> {
-    use std::f64::consts::{FRAC_PI_2, PI};
-    Move::from_index(a).map(|m| match m {
-        Move::E => 0.0,
-        Move::N => FRAC_PI_2,
-        Move::W => PI,
-        Move::S => -FRAC_PI_2,
-    })
-}
-
 /// Per-run state, set by `on_start`.
 #[derive(Debug)]
 struct Run {
@@ -230,6 +235,11 @@ struct Run {
     /// Serialized `/viz/arena` and `/viz/robot` messages (republished unchanged).
     arena_json: Vec<u8>,
     robot_json: Vec<u8>,
+    /// Serialized `/viz/robot_estimate` (republished unchanged).
+    estimate_json: Vec<u8>,
+    /// A pose estimate has been written (the estimate's scene is then written with the
+    /// others).
+    estimates_seen: bool,
 }
 
 /// Writes a run to an MCAP file; see the module documentation for what and when.
@@ -262,6 +272,10 @@ pub struct McapRecorder {
     last_flush_step: u64,
     last_flush: Instant,
     outcome: OutcomeHandle,
+    /// Writes to a file (false: live view only).
+    file: bool,
+    /// The live view the messages also go to.
+    live: Option<LiveTap>,
 }
 
 /// How a recording ended, as seen through an [`OutcomeHandle`].
@@ -331,9 +345,19 @@ impl McapRecorder {
         }
         let writer = LogWriter::new(writer, CHUNK_SIZE, config.writer_thread)
             .map_err(|e| mcap_err("start the log writer thread", e))?;
-        Ok(Self {
+        Ok(Self::with_output(config, Some(writer), channel_ids, stats))
+    }
+
+    fn with_output(
+        config: RecorderConfig,
+        writer: Option<LogWriter<BufWriter<File>>>,
+        channel_ids: [u16; NCH],
+        stats: RecordStats,
+    ) -> Self {
+        Self {
             config,
-            writer: Some(writer),
+            file: writer.is_some(),
+            writer,
             channel_ids,
             topics: [TopicStats { count: 0, digest: DIGEST_START }; NCH],
             stats,
@@ -351,7 +375,36 @@ impl McapRecorder {
             last_flush_step: 0,
             last_flush: Instant::now(),
             outcome: OutcomeHandle::default(),
-        })
+            live: None,
+        }
+    }
+
+    /// A recorder that writes no file and shows the run in a live view only (`config`'s
+    /// path is not used). While no client is connected it writes nothing but the latched
+    /// scenes, so the run is not slowed.
+    pub fn live_only(config: RecorderConfig, live: LiveTap) -> Self {
+        let mut stats = RecordStats::default();
+        for i in 0..NCH {
+            if i == Ch::Log as usize && !config.notes {
+                continue;
+            }
+            stats.topics.insert(channel_def(i).0.to_string(), TopicStats { count: 0, digest: DIGEST_START });
+        }
+        let mut r = Self::with_output(config, None, [0; NCH], stats);
+        r.live = Some(live);
+        r
+    }
+
+    /// Also shows the run in a live view, with the same messages as the file.
+    pub fn with_live(mut self, live: LiveTap) -> Self {
+        self.live = Some(live);
+        self
+    }
+
+    /// Whether a step's messages are wanted: always with a file, else while a live
+    /// client is connected.
+    fn active(&self) -> bool {
+        self.file || self.live.as_ref().is_some_and(LiveTap::has_clients)
     }
 
     /// The configuration.
@@ -389,8 +442,21 @@ impl McapRecorder {
 
     /// Writes one message, whose bytes `write` appends.
     fn emit(&mut self, ch: Ch, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
-        let Some(w) = self.writer.as_mut() else { return };
         let i = ch as usize;
+        if let Some(live) = self.live.as_mut().filter(|l| l.wants(i)) {
+            let bytes = live.send(i, log_time, write);
+            let r = match self.writer.as_mut() {
+                Some(w) => w.message(self.channel_ids[i], log_time, |out| out.extend_from_slice(bytes)),
+                None if self.file => return,
+                None => Ok(()),
+            };
+            match r {
+                Ok(()) => self.topics[i].count += 1,
+                Err(e) => self.fail(e),
+            }
+            return;
+        }
+        let Some(w) = self.writer.as_mut() else { return };
         if let Err(e) = w.message(self.channel_ids[i], log_time, write) {
             self.fail(e);
             return;
@@ -436,8 +502,16 @@ impl McapRecorder {
     /// `/tf` and `/robot/pose` at one pose. The writer writes the JSON (by hand, byte for
     /// byte as serde_json writes [`m::FrameTransform`] and [`m::PoseInFrame`]).
     fn write_pose(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
-        let Some(w) = self.writer.as_mut() else { return };
         let (tf, pose) = (Ch::Tf as usize, Ch::Pose as usize);
+        if let Some(live) = self.live.as_mut() {
+            live.pose(tf, pose, log_time, x, y, theta);
+            if !self.file {
+                self.topics[tf].count += 1;
+                self.topics[pose].count += 1;
+                return;
+            }
+        }
+        let Some(w) = self.writer.as_mut() else { return };
         if let Err(e) = w.pose(self.channel_ids[tf], self.channel_ids[pose], log_time, x, y, theta) {
             self.fail(e);
             return;
@@ -458,6 +532,9 @@ impl McapRecorder {
         let Some(run) = self.run.take() else { return };
         self.write_bytes(Ch::Arena, log_time, &run.arena_json);
         self.write_bytes(Ch::Robot, log_time, &run.robot_json);
+        if run.estimates_seen {
+            self.write_bytes(Ch::RobotEstimate, log_time, &run.estimate_json);
+        }
         self.run = Some(run);
     }
 
@@ -501,7 +578,8 @@ impl McapRecorder {
     /// Returns what was written, or the first error met while recording.
     pub fn finish(&mut self, t: u64, complete: bool) -> Result<RecordStats, LogError> {
         let end_time = self.end_time_ns();
-        if self.writer.is_some() {
+        let live_open = !self.file && self.live.is_some() && !self.stats.finished;
+        if self.writer.is_some() || live_open {
             self.note(
                 end_time,
                 if complete { m::LOG_INFO } else { m::LOG_WARNING },
@@ -558,6 +636,9 @@ impl McapRecorder {
                 }
             }
         }
+        if live_open {
+            self.stats.finished = true;
+        }
         self.sync_stats();
         let result = match self.error.take() {
             Some(e) => Err(e),
@@ -591,420 +672,6 @@ impl Drop for McapRecorder {
         if self.writer.is_some() {
             let _ = self.finish(self.stats.steps_seen, false);
         }
-    }
-}
-
-fn robot_radius(info: &RunInfo<'_>) -> f64 {
-    let from_facts = info
-        .facts
-        .iter()
-        .find(|(k, _)| matches!(k.as_str(), "robot.radius_m" | "robot_radius_m" | "radius_m"))
-        .and_then(|(_, v)| v.parse::<f64>().ok());
-    let from_world = info
-        .world
-        .robot
-        .as_ref()
-        .and_then(|t| t.get("radius_m"))
-        .and_then(|v| v.as_float().or_else(|| v.as_integer().map(|i| i as f64)));
-    from_facts.or(from_world).filter(|r| r.is_finite() && *r > 0.0).unwrap_or(0.3 * info.world.cell_size)
-}
-
-/// `/viz/arena`: floor, boundary walls, blocked cells, goal and respawn, cell lines.
-pub(crate) fn arena_scene(world: &World, timestamp: m::Time) -> m::SceneUpdate {
-    let cs = world.cell_size;
-    let (w, h) = (world.width as f64 * cs, world.height as f64 * cs);
-    let wall_h = 0.5 * cs;
-    let th = 0.1 * cs;
-    let wall = m::Color::rgba(0.35, 0.35, 0.4, 1.0);
-    let mut e = m::SceneEntity::new(timestamp, "world", "arena");
-    let cube = |x: f64, y: f64, z: f64, sx: f64, sy: f64, sz: f64, color: m::Color| m::CubePrimitive {
-        pose: m::Pose::planar(x, y, z, 0.0),
-        size: m::Vector3 { x: sx, y: sy, z: sz },
-        color,
-    };
-    e.cubes.push(cube(w / 2.0, h / 2.0, -0.005, w, h, 0.01, m::Color::rgba(0.93, 0.93, 0.9, 1.0)));
-    e.cubes.push(cube(w / 2.0, h + th / 2.0, wall_h / 2.0, w + 2.0 * th, th, wall_h, wall));
-    e.cubes.push(cube(w / 2.0, -th / 2.0, wall_h / 2.0, w + 2.0 * th, th, wall_h, wall));
-    e.cubes.push(cube(-th / 2.0, h / 2.0, wall_h / 2.0, th, h, wall_h, wall));
-    e.cubes.push(cube(w + th / 2.0, h / 2.0, wall_h / 2.0, th, h, wall_h, wall));
-    for c in 0..world.num_cells() {
-        if !world.is_free(c) {
-            let (x, y) = world.cell_center(c);
-            e.cubes.push(cube(x, y, wall_h / 2.0, cs, cs, wall_h, wall));
-        }
-    }
-    for (cell, color, label) in [
-        (world.goal, m::Color::rgba(0.2, 0.75, 0.3, 0.8), "G"),
-        (world.respawn, m::Color::rgba(0.25, 0.45, 0.9, 0.8), "S"),
-    ] {
-        let (x, y) = world.cell_center(cell);
-        e.cubes.push(cube(x, y, 0.002, cs, cs, 0.004, color));
-        e.texts.push(m::TextPrimitive {
-            pose: m::Pose::planar(x, y, wall_h, 0.0),
-            billboard: true,
-            font_size: 0.5 * cs,
-            scale_invariant: false,
-            color: m::Color::rgba(0.1, 0.1, 0.1, 1.0),
-            text: label.into(),
-        });
-    }
-    let mut points = Vec::with_capacity(2 * (world.width + world.height + 2));
-    for i in 0..=world.width {
-        let x = i as f64 * cs;
-        points.push(m::Vector3 { x, y: 0.0, z: 0.003 });
-        points.push(m::Vector3 { x, y: h, z: 0.003 });
-    }
-    for j in 0..=world.height {
-        let y = j as f64 * cs;
-        points.push(m::Vector3 { x: 0.0, y, z: 0.003 });
-        points.push(m::Vector3 { x: w, y, z: 0.003 });
-    }
-    e.lines.push(m::LinePrimitive {
-        kind: m::LINE_LIST,
-        pose: m::Pose::default(),
-        thickness: 1.0,
-        scale_invariant: true,
-        points,
-        color: m::Color::rgba(0.6, 0.6, 0.6, 1.0),
-        colors: Vec::new(),
-        indices: Vec::new(),
-    });
-    e.metadata.push(m::KeyValuePair { key: "world".into(), value: world.name.clone() });
-    m::SceneUpdate { deletions: Vec::new(), entities: vec![e] }
-}
-
-/// `/viz/robot`: a disc (short cylinder) and a heading arrow in the "robot" frame, which
-/// `/tf` moves.
-pub(crate) fn robot_scene(radius: f64, timestamp: m::Time) -> m::SceneUpdate {
-    let height = 0.4 * radius;
-    let mut e = m::SceneEntity::new(timestamp, "robot", "robot");
-    e.frame_locked = true;
-    e.cylinders.push(m::CylinderPrimitive {
-        pose: m::Pose::planar(0.0, 0.0, height / 2.0, 0.0),
-        size: m::Vector3 { x: 2.0 * radius, y: 2.0 * radius, z: height },
-        bottom_scale: 1.0,
-        top_scale: 1.0,
-        color: m::Color::rgba(0.95, 0.55, 0.1, 0.9),
-    });
-    e.arrows.push(m::ArrowPrimitive {
-        pose: m::Pose::planar(0.0, 0.0, height + 0.01, 0.0),
-        shaft_length: 0.8 * radius,
-        shaft_diameter: 0.15 * radius,
-        head_length: 0.5 * radius,
-        head_diameter: 0.4 * radius,
-        color: m::Color::rgba(0.1, 0.1, 0.1, 1.0),
-    });
-    e.metadata.push(m::KeyValuePair { key: "radius_m".into(), value: radius.to_string() });
-    m::SceneUpdate { deletions: Vec::new(), entities: vec![e] }
-}
-
-impl Observer for McapRecorder {
-    fn trace_period_s(&self) -> Option<f64> {
-        Some(self.config.trace_period_s())
-    }
-
-    fn on_start(&mut self, info: &RunInfo<'_>, initial_state: State, sim_time_s: f64) {
-        let world = info.world.clone();
-        let grid = info.env_kind == "grid";
-        let fact_period = info
-            .facts
-            .iter()
-            .find(|(k, _)| k == "grid_step_period_s")
-            .and_then(|(_, v)| v.parse::<f64>().ok())
-            .filter(|p| p.is_finite() && *p > 0.0)
-            .map(ns);
-        self.period_ns = self
-            .config
-            .step_period_ns
-            .or(fact_period)
-            .unwrap_or(RecorderConfig::DEFAULT_STEP_PERIOD_NS)
-            .max(1);
-        let start_ns = if grid { 0 } else { ns(sim_time_s) };
-        self.step_start_s = sim_time_s;
-        // The start pose is written below; the trace's samples follow one period later.
-        self.next_pose_s =
-            sim_time_s + if self.config.pose_rate_hz > 0.0 { 1.0 / self.config.pose_rate_hz } else { 0.0 };
-        let radius = robot_radius(info);
-        let ts = m::Time::from_ns(start_ns);
-        let arena_json = serde_json::to_vec(&arena_scene(&world, ts)).expect("JSON of a scene");
-        let robot_json = serde_json::to_vec(&robot_scene(radius, ts)).expect("JSON of a scene");
-        let config = &self.config;
-        let mut run: BTreeMap<String, String> = BTreeMap::new();
-        let mut put = |k: &str, v: String| {
-            run.insert(k.to_string(), v);
-        };
-        put("seed", info.seed.to_string());
-        put("learner", info.learner.to_string());
-        put("env_kind", info.env_kind.to_string());
-        put("world", world.name.clone());
-        put("world_size", format!("{}x{}", world.width, world.height));
-        put("cell_size_m", world.cell_size.to_string());
-        put("actions", info.action_names.join(","));
-        put("initial_state", initial_state.to_string());
-        put("mmq_log_version", env!("CARGO_PKG_VERSION").to_string());
-        put("mcap_library", mcap::LIBRARY_IDENTIFIER.to_string());
-        for (k, v) in info.facts {
-            put(k, v.clone());
-        }
-        let recorder: BTreeMap<String, String> = [
-            ("time_base", "log_time = simulated ns since run start".to_string()),
-            ("step_period_ns", if grid { self.period_ns.to_string() } else { "n/a (robot clock)".into() }),
-            ("pose_rate_hz", config.pose_rate_hz.to_string()),
-            (
-                "window",
-                config.window.map_or("all".into(), |w| {
-                    format!("first {} and last {} of {}", w.first, w.last, w.total)
-                }),
-            ),
-            ("flush_every_steps", config.flush_every_steps.to_string()),
-            (
-                "compression",
-                format!("zstd level {}, chunks of {} KiB", config.compression_level, CHUNK_SIZE >> 10),
-            ),
-            ("robot_radius_m", radius.to_string()),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_string(), v))
-        .collect();
-        if let Some(w) = self.writer.as_mut() {
-            let r = w
-                .metadata("run", &run)
-                .and_then(|()| w.metadata("recorder", &recorder))
-                .and_then(|()| w.attach("world.toml", "application/toml", start_ns, world.source.as_bytes()))
-                .and_then(|()| {
-                    w.attach("config.toml", "application/toml", start_ns, info.config_toml.as_bytes())
-                });
-            if let Err(e) = r {
-                self.fail(e);
-            }
-        }
-        self.run =
-            Some(Run { world, grid, action_names: info.action_names.to_vec(), arena_json, robot_json });
-        self.write_scenes(start_ns);
-        self.heading = 0.0;
-        if grid || initial_state < info.world.num_cells() {
-            self.write_cell_pose(start_ns, initial_state);
-        }
-        self.prev_recorded = true;
-        self.note(
-            start_ns,
-            m::LOG_INFO,
-            format!(
-                "run start: {} on {} ({}), seed {}, initial state {initial_state}",
-                info.learner, info.world.name, info.env_kind, info.seed
-            ),
-        );
-    }
-
-    fn on_step(&mut self, rec: &StepRecord<'_>) {
-        let Some(run) = &self.run else { return };
-        let grid = run.grid;
-        let t = rec.t;
-        let period = self.period_ns;
-        // Step times (robot: keep the clock monotonic even if the environment resets it).
-        let mut end_s = rec.sim_time_s + self.time_offset_s;
-        if !grid && end_s + 1e-9 < self.step_start_s {
-            self.time_offset_s = self.step_start_s;
-            end_s = rec.sim_time_s + self.time_offset_s;
-        }
-        let (start_ns, end_ns) =
-            if grid { (t * period, (t + 1) * period) } else { (ns(self.step_start_s), ns(end_s)) };
-        // Running figures are kept over every step, recorded or not.
-        let emission = (rec.emitted != 0.0).then(|| {
-            let (id, delay) = match rec.emission() {
-                Some(e) => (e.id, e.delay),
-                None => (self.next_emission_id, rec.delay.unwrap_or(0)),
-            };
-            self.next_emission_id = id + 1;
-            self.emitted_total += rec.emitted;
-            (id, delay)
-        });
-        self.delivered_total += rec.delivered;
-        let recorded = self.config.window.is_none_or(|w| w.contains(t));
-        self.stats.steps_seen += 1;
-        if recorded {
-            self.stats.steps_recorded += 1;
-            let action_name =
-                run.action_names.get(rec.action).cloned().unwrap_or_else(|| rec.action.to_string());
-            if (grid || rec.trace.poses.is_empty()) && !self.prev_recorded {
-                // Entering a window: show where the decision is taken.
-                self.write_cell_pose(start_ns, rec.state);
-            }
-            let decision = m::Decision {
-                t,
-                state: rec.state as u64,
-                action: rec.action as u64,
-                action_name,
-                model: rec.model.map(|x| x as u64),
-                explored: rec.explored,
-                next_state: rec.next_state as u64,
-                event: rec.event.name().to_string(),
-            };
-            self.write(Ch::Decision, start_ns, &decision);
-            self.write_motion(rec, grid, end_ns);
-            if let Some((id, delay)) = emission {
-                let cause = match rec.event {
-                    Event::WallBump => "wall",
-                    Event::Teleport => "goal",
-                    Event::Moved | Event::TimedOut => "step",
-                };
-                let msg = m::RewardEmitted {
-                    id,
-                    t,
-                    value: rec.emitted,
-                    cause: cause.into(),
-                    delay,
-                    due: t + u64::from(delay),
-                    total: self.emitted_total,
-                };
-                self.write(Ch::Emitted, end_ns, &msg);
-            }
-            if rec.delivered != 0.0 || !rec.delivered_ids.is_empty() {
-                let parts = rec
-                    .ledger
-                    .map(|l| {
-                        rec.delivered_ids
-                            .iter()
-                            .filter_map(|&id| l.get(id))
-                            .map(|e| m::DeliveredPart {
-                                id: e.id,
-                                t_emit: e.t_emit,
-                                delay: e.delay,
-                                value: e.value,
-                            })
-                            .collect()
-                    })
-                    .unwrap_or_default();
-                let msg = m::RewardDelivered {
-                    t,
-                    sum: rec.delivered,
-                    ids: rec.delivered_ids.to_vec(),
-                    parts,
-                    total: self.delivered_total,
-                };
-                self.write(Ch::Delivered, end_ns, &msg);
-            }
-            if rec.event == Event::Teleport {
-                let center = |s: State| {
-                    let w = &self.run.as_ref().expect("run started").world;
-                    let (x, y) = if s < w.num_cells() { w.cell_center(s) } else { (f64::NAN, f64::NAN) };
-                    m::Point2 { x, y }
-                };
-                let msg = m::Teleport {
-                    t,
-                    from_state: rec.state as u64,
-                    to_state: rec.next_state as u64,
-                    from: center(rec.state),
-                    to: center(rec.next_state),
-                };
-                self.write(Ch::Teleport, end_ns, &msg);
-                self.write_scenes(end_ns);
-            }
-        } else if let Some(p) = rec.trace.poses.last() {
-            // Keep the thinning clock moving while skipping.
-            self.next_pose_s = self.next_pose_s.max(p.time_s + self.time_offset_s);
-        }
-        self.prev_recorded = recorded;
-        self.step_start_s = if grid { ((t + 1) * period) as f64 * 1e-9 } else { end_s };
-        self.maybe_flush();
-    }
-
-    fn on_tables(&mut self, t: u64, sim_time_s: f64, visits: &[f64], values: &[f64]) {
-        if !self.config.heatmaps {
-            return;
-        }
-        let Some(run) = &self.run else { return };
-        let log_time = if run.grid { t * self.period_ns } else { ns(sim_time_s + self.time_offset_s) };
-        let n = run.world.num_cells();
-        if visits.len() != n || values.len() != n {
-            let msg = format!(
-                "heat maps skipped at step {t}: {} visit and {} value entries for {n} cells",
-                visits.len(),
-                values.len()
-            );
-            self.note(log_time, m::LOG_WARNING, msg);
-            return;
-        }
-        let visits = heatmap(&run.world, log_time, "visits", visits);
-        let value = heatmap(&run.world, log_time, "value", values);
-        self.write(Ch::Visits, log_time, &visits);
-        self.write(Ch::Value, log_time, &value);
-    }
-
-    fn on_finish(&mut self, t: u64, complete: bool) {
-        if let Err(e) = self.finish(t, complete) {
-            self.error = Some(e);
-        }
-    }
-}
-
-impl McapRecorder {
-    /// Poses and contacts of a step, in time order.
-    fn write_motion(&mut self, rec: &StepRecord<'_>, grid: bool, end_ns: u64) {
-        let trace = rec.trace;
-        if grid || trace.poses.is_empty() {
-            if let Some(h) = move_heading(rec.action).filter(|_| grid) {
-                self.heading = h;
-            }
-            if rec.event == Event::Teleport {
-                self.heading = 0.0;
-            }
-            for c in &trace.contacts {
-                self.write_contact(rec.t, c);
-            }
-            self.write_cell_pose(end_ns, rec.next_state);
-            return;
-        }
-        let period = if self.config.pose_rate_hz > 0.0 { 1.0 / self.config.pose_rate_hz } else { 0.0 };
-        let off = self.time_offset_s;
-        let mut contacts = trace.contacts.iter().peekable();
-        let last = trace.poses.len() - 1;
-        for (i, p) in trace.poses.iter().enumerate() {
-            let time = p.time_s + off;
-            while let Some(c) = contacts.next_if(|c| c.time_s + off <= time) {
-                self.write_contact(rec.t, c);
-            }
-            // The step's last sample (its end pose, after a teleport too) is always kept.
-            if period == 0.0 || time + 1e-9 >= self.next_pose_s || i == last {
-                self.write_pose(ns(time), p.x, p.y, p.theta);
-                if period > 0.0 {
-                    self.next_pose_s = ((time / period + 1e-9).floor() + 1.0) * period;
-                }
-            }
-        }
-        for c in contacts {
-            self.write_contact(rec.t, c);
-        }
-    }
-
-    fn write_contact(&mut self, t: u64, c: &mmq_core::ContactSample) {
-        let time_s = c.time_s + self.time_offset_s;
-        let msg = m::Contact { t, time_s, started: c.started, wall: c.wall.clone() };
-        self.write(Ch::Contact, ns(time_s), &msg);
-    }
-}
-
-/// A `foxglove.Grid` of one FLOAT32 field per cell, rows from the bottom of the map
-/// (y = 0) up, origin at the arena's bottom-left corner.
-pub(crate) fn heatmap(world: &World, log_time: u64, field: &str, per_cell: &[f64]) -> m::Grid {
-    let (w, h) = (world.width, world.height);
-    let mut bytes = Vec::with_capacity(4 * w * h);
-    for row_from_bottom in 0..h {
-        let r = h - 1 - row_from_bottom;
-        for c in 0..w {
-            bytes.extend_from_slice(&(per_cell[world.index(r, c)] as f32).to_le_bytes());
-        }
-    }
-    m::Grid {
-        timestamp: m::Time::from_ns(log_time),
-        frame_id: "world".into(),
-        pose: m::Pose::default(),
-        column_count: w as u32,
-        cell_size: m::Vector2 { x: world.cell_size, y: world.cell_size },
-        row_stride: 4 * w as u32,
-        cell_stride: 4,
-        fields: vec![m::PackedElementField { name: field.into(), offset: 0, kind: m::FLOAT32 }],
-        data: base64::engine::general_purpose::STANDARD.encode(&bytes),
     }
 }
 
@@ -1047,17 +714,5 @@ mod tests {
         assert_ne!(base, d(&[(2, b"cd"), (1, b"ab")]));
         assert_ne!(base, d(&[(1, b"ab"), (2, b"cd"), (2, b"")]));
         assert_eq!(base, d(&[(1, b"ab"), (2, b"cd")]));
-    }
-
-    #[test]
-    fn heatmap_rows_go_up_from_the_bottom() {
-        let w = World::parse("map = \"\"\"\nG.\n.S\n\"\"\"", "t").unwrap();
-        let g = heatmap(&w, 5, "v", &[1.0, 2.0, 3.0, 4.0]);
-        let bytes = base64::engine::general_purpose::STANDARD.decode(&g.data).unwrap();
-        let vals: Vec<f32> = bytes.chunks(4).map(|b| f32::from_le_bytes(b.try_into().unwrap())).collect();
-        // Bottom row (cells 2, 3) first.
-        assert_eq!(vals, vec![3.0, 4.0, 1.0, 2.0]);
-        assert_eq!((g.column_count, g.row_stride, g.cell_stride), (2, 8, 4));
-        assert_eq!(g.timestamp, m::Time { sec: 0, nsec: 5 });
     }
 }

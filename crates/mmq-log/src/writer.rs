@@ -419,7 +419,7 @@ impl<W: Write + Send + 'static> LogWriter<W> {
 /// formatted once for both messages, and the position (orientation) is reused as it is
 /// while x and y (θ) stay the same bit for bit (a robot turning in place, or waiting).
 #[derive(Default)]
-struct PoseJson {
+pub(crate) struct PoseJson {
     /// `"timestamp":{"sec":…,"nsec":…}`.
     time: Vec<u8>,
     /// `{"x":…,"y":…,"z":0.0}`.
@@ -444,7 +444,7 @@ fn json_f64(out: &mut Vec<u8>, v: f64) {
 }
 
 impl PoseJson {
-    fn set(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
+    pub(crate) fn set(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
         let t = m::Time::from_ns(log_time);
         let mut ib = itoa::Buffer::new();
         let b = &mut self.time;
@@ -483,7 +483,7 @@ impl PoseJson {
     }
 
     /// `foxglove.FrameTransform`, world → robot.
-    fn frame_transform(&self, out: &mut Vec<u8>) {
+    pub(crate) fn frame_transform(&self, out: &mut Vec<u8>) {
         out.push(b'{');
         out.extend_from_slice(&self.time);
         out.extend_from_slice(
@@ -496,7 +496,7 @@ impl PoseJson {
     }
 
     /// `foxglove.PoseInFrame` in frame world.
-    fn pose_in_frame(&self, out: &mut Vec<u8>) {
+    pub(crate) fn pose_in_frame(&self, out: &mut Vec<u8>) {
         out.push(b'{');
         out.extend_from_slice(&self.time);
         out.extend_from_slice(b",\"frame_id\":\"world\",\"pose\":{\"position\":");

@@ -119,6 +119,22 @@ pub fn record_grid(
 /// A scripted robot-like run: one second of simulated time per step, poses every 1/60 s
 /// moving between cell centres, a contact (start, stop) at every wall bump.
 pub fn run_robot(world: &World, obs: &mut dyn Observer, steps: u64, seed: u64) -> Vec<StepLog> {
+    run_robot_with(world, obs, steps, seed, false)
+}
+
+/// The estimate's offset from the true pose in [`run_robot_with`]: x, y (m), θ (rad).
+pub const ESTIMATE_OFFSET: (f64, f64, f64) = (0.05, -0.03, 0.02);
+
+/// [`run_robot`], and with `estimating` a robot that controls on an estimate: the
+/// estimate at every pose sample (offset by [`ESTIMATE_OFFSET`]) and one localisation
+/// fix per step, half-way through it, 1 cm east of the true pose.
+pub fn run_robot_with(
+    world: &World,
+    obs: &mut dyn Observer,
+    steps: u64,
+    seed: u64,
+    estimating: bool,
+) -> Vec<StepLog> {
     let names: Vec<String> = Move::ALL.iter().map(|m| m.name().to_string()).collect();
     let facts =
         vec![("robot.radius_m".to_string(), "0.2".to_string()), ("physics.dt_s".into(), "0.0166".into())];
@@ -142,6 +158,8 @@ pub fn run_robot(world: &World, obs: &mut dyn Observer, steps: u64, seed: u64) -
         let (x1, y1) = world.cell_center(n);
         trace.poses.clear();
         trace.contacts.clear();
+        trace.estimates.clear();
+        trace.fixes.clear();
         let t0 = t as f64;
         for k in 1..=60 {
             let f = k as f64 / 60.0;
@@ -156,6 +174,18 @@ pub fn run_robot(world: &World, obs: &mut dyn Observer, steps: u64, seed: u64) -
                 _ => (x0 + (x1 - x0) * f, y0 + (y1 - y0) * f),
             };
             trace.poses.push(PoseSample { time_s: t0 + f, x, y, theta: 0.1 * a as f64 });
+            if estimating {
+                let (dx, dy, dth) = ESTIMATE_OFFSET;
+                trace.estimates.push(PoseSample {
+                    time_s: t0 + f,
+                    x: x + dx,
+                    y: y + dy,
+                    theta: 0.1 * a as f64 + dth,
+                });
+                if k == 30 {
+                    trace.fixes.push(PoseSample { time_s: t0 + f, x: x + 0.01, y, theta: 0.1 * a as f64 });
+                }
+            }
         }
         if ev == Event::WallBump {
             let wall = format!("wall-{n}-{a}");

@@ -2,6 +2,8 @@
 
 mod common;
 mod compare;
+mod estimates;
+mod live;
 mod render;
 mod robot;
 mod roundtrip;

@@ -14,7 +14,7 @@ use crate::common::{self, record_grid};
 /// Validates `v` against the subset of JSON Schema used by the Foxglove and mmq schemas
 /// (type, properties, required, additionalProperties = false, items, oneOf of consts,
 /// enum, minimum, maximum). Returns the first error as "path: problem".
-fn check(schema: &Value, v: &Value, path: &str) -> Result<(), String> {
+pub fn check(schema: &Value, v: &Value, path: &str) -> Result<(), String> {
     let err = |m: String| Err(format!("{path}: {m}"));
     if let Some(alts) = schema.get("oneOf").and_then(Value::as_array) {
         let n = alts.iter().filter(|a| check(a, v, path).is_ok()).count();
@@ -90,6 +90,123 @@ fn check(schema: &Value, v: &Value, path: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// What Foxglove's JSON schema parser (the app's `parseJsonSchema`, which turns a
+/// `jsonschema` schema into message definitions) would refuse in `schema`: the root and
+/// every object must be `"type": "object"` with `properties`; each property either a
+/// `oneOf` of numeric `const`s (an enum) or exactly one `type` of boolean, string
+/// (`contentEncoding` none or base64), number, integer, object or array; array items of
+/// boolean, string (no `contentEncoding`), number, integer or object. No `null`, no
+/// type unions. Returns one line per problem, with its path.
+pub fn foxglove_subset_problems(schema: &Value) -> Vec<String> {
+    fn object(s: &Value, path: &str, out: &mut Vec<String>) {
+        if s.get("type") != Some(&Value::from("object")) {
+            out.push(format!(
+                "{path}: expected \"type\": \"object\", got {}",
+                s.get("type").unwrap_or(&Value::Null)
+            ));
+            return;
+        }
+        let Some(props) = s.get("properties").and_then(Value::as_object) else {
+            out.push(format!("{path}: an object without `properties`"));
+            return;
+        };
+        for (name, f) in props {
+            let p = format!("{path}.{name}");
+            if let Some(alts) = f.get("oneOf") {
+                let ok = alts
+                    .as_array()
+                    .is_some_and(|a| a.iter().all(|x| x.get("const").is_some_and(Value::is_number)));
+                if !ok {
+                    out.push(format!("{p}: oneOf alternatives must be numeric consts"));
+                }
+                continue;
+            }
+            match f.get("type").and_then(Value::as_str) {
+                Some("boolean" | "number" | "integer") => {}
+                Some("string") => match f.get("contentEncoding").and_then(Value::as_str) {
+                    None | Some("base64") => {}
+                    Some(e) => out.push(format!("{p}: unsupported contentEncoding {e}")),
+                },
+                Some("object") => object(f, &p, out),
+                Some("array") => {
+                    let items = f.get("items").unwrap_or(&Value::Null);
+                    match items.get("type").and_then(Value::as_str) {
+                        Some("boolean" | "number" | "integer") => {}
+                        Some("string") if items.get("contentEncoding").is_none() => {}
+                        Some("object") => object(items, &format!("{p}[]"), out),
+                        _ => out.push(format!(
+                            "{p}[]: unsupported array item type {}",
+                            items.get("type").unwrap_or(&Value::Null)
+                        )),
+                    }
+                }
+                _ => out.push(format!("{p}: unsupported type {}", f.get("type").unwrap_or(&Value::Null))),
+            }
+        }
+    }
+    let mut out = Vec::new();
+    object(schema, "", &mut out);
+    out
+}
+
+/// The schemas of the channels of a file, by name.
+fn schemas_in(path: &Path) -> HashMap<String, Value> {
+    let bytes = std::fs::read(path).unwrap();
+    let summary = mcap::read::Summary::read(&bytes).unwrap().expect("a summary");
+    summary.schemas.values().map(|s| (s.name.clone(), serde_json::from_slice(&s.data).unwrap())).collect()
+}
+
+#[test]
+fn the_foxglove_subset_check_refuses_what_foxglove_refuses() {
+    let ok = serde_json::json!({"type": "object", "properties": {
+        "a": {"type": "integer"}, "b": {"type": "string", "contentEncoding": "base64"},
+        "c": {"type": "array", "items": {"type": "object", "properties": {"x": {"type": "number"}}}},
+        "d": {"oneOf": [{"const": 0, "title": "A"}, {"const": 1, "title": "B"}]}}});
+    assert_eq!(foxglove_subset_problems(&ok), Vec::<String>::new());
+    for (bad, what) in [
+        (serde_json::json!({"type": ["integer", "null"]}), ".f: unsupported type"),
+        (serde_json::json!({"type": "null"}), ".f: unsupported type"),
+        (serde_json::json!({"type": "string", "contentEncoding": "hex"}), "contentEncoding"),
+        (
+            serde_json::json!({"type": "array", "items": {"type": ["number", "null"]}}),
+            ".f[]: unsupported array item",
+        ),
+        (serde_json::json!({"type": "object"}), "without `properties`"),
+        (
+            serde_json::json!({"type": "object", "properties": {"g": {"type": ["string", "null"]}}}),
+            ".f.g: unsupported type",
+        ),
+        (serde_json::json!({"oneOf": [{"const": "a"}]}), "numeric consts"),
+    ] {
+        let schema = serde_json::json!({"type": "object", "properties": {"f": bad}});
+        let p = foxglove_subset_problems(&schema);
+        assert!(p.len() == 1 && p[0].contains(what), "{bad}: {p:?}");
+    }
+}
+
+#[test]
+fn every_schema_is_one_foxglove_reads() {
+    // Every schema the crate can register...
+    for (topic, name, text) in mmq_log::messages::CHANNELS.iter().chain([&mmq_log::messages::LOG_CHANNEL]) {
+        let v: Value = serde_json::from_str(text).unwrap();
+        assert_eq!(foxglove_subset_problems(&v), Vec::<String>::new(), "{name} ({topic})");
+    }
+    // ...and every schema in the files written, the estimating robot's included.
+    let dir = tempfile::tempdir().unwrap();
+    let (grid, robot) = grid_and_robot_logs(dir.path());
+    let est = dir.path().join("est.mcap");
+    let mut rec = McapRecorder::create(RecorderConfig::new(&est)).unwrap();
+    common::run_robot_with(&common::world("room-12x6"), &mut rec, 10, 3, true);
+    drop(rec);
+    for f in [grid, robot, est] {
+        let schemas = schemas_in(&f);
+        assert!(schemas.contains_key("mmq.Decision"));
+        for (name, v) in schemas {
+            assert_eq!(foxglove_subset_problems(&v), Vec::<String>::new(), "{name} in {}", f.display());
+        }
+    }
+}
+
 /// Checks every message of a file against its channel's schema; returns messages per
 /// schema name.
 pub fn validate_all(path: &Path) -> HashMap<String, usize> {
@@ -149,9 +266,15 @@ fn the_validator_catches_what_foxglove_would_refuse() {
     assert!(check(field, &serde_json::json!({"name": "v", "offset": 0, "type": 7}), "").is_ok());
     assert!(check(field, &serde_json::json!({"name": "v", "offset": 0, "type": "FLOAT32"}), "").is_err());
     let decision: Value = serde_json::from_str(mmq_log::messages::schemas::DECISION).unwrap();
-    let d = serde_json::json!({"t": 0, "state": 1, "action": 2, "action_name": "S", "model": null,
+    let d = serde_json::json!({"t": 0, "state": 1, "action": 2, "action_name": "S",
         "explored": false, "next_state": 1, "event": "wall"});
     check(&decision, &d, "").unwrap();
+    let mut with_model = d.clone();
+    with_model["model"] = Value::from(3);
+    check(&decision, &with_model, "").unwrap();
+    // No learner's model is left out, never null (Foxglove has no null type).
+    with_model["model"] = Value::Null;
+    assert!(check(&decision, &with_model, "").is_err());
     let mut extra = d.clone();
     extra["surprise"] = Value::from(1);
     assert!(check(&decision, &extra, "").is_err());

@@ -1,0 +1,347 @@
+//! The live view: a Foxglove WebSocket server (the `foxglove` SDK) that shows a run as it
+//! happens, with the topics, schemas and JSON bytes of the MCAP recording.
+//!
+//! - [`LiveServer::start`] listens on an address (loopback unless the user names another
+//!   one; [`parse_addr`]) and advertises every mmq channel, with simulated time.
+//! - [`LiveServer::tap`] gives the [`LiveTap`] a recorder sends its messages through
+//!   ([`crate::McapRecorder::live_only`], [`crate::McapRecorder::with_live`]).
+//! - Latched topics ([`crate::messages::LATCHED`]: the scenes and heat maps) keep their
+//!   last message, which every new subscriber receives at once.
+//! - With no client connected the recorder writes nothing live (the run is not slowed);
+//!   with one, [`LiveConfig::speed`] paces the run to that many seconds of simulated time
+//!   per second of wall-clock time.
+//!
+//! [`replay`] serves a recorded file instead, with playback control.
+
+use std::collections::HashMap;
+use std::net::{IpAddr, Ipv4Addr, SocketAddr};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use foxglove::websocket::{Capability, ChannelView, Client, ServerListener};
+use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema, WebSocketServerHandle};
+
+use crate::error::LogError;
+use crate::messages::{CHANNELS, LATCHED, LOG_CHANNEL};
+use crate::writer::PoseJson;
+
+pub mod replay;
+
+/// The default address of the live view: loopback only, Foxglove's usual port.
+pub const DEFAULT_ADDR: SocketAddr = SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 8765);
+
+/// Reads a live-view address: `HOST:PORT` (`127.0.0.1:8765`, `[::1]:9000`,
+/// `0.0.0.0:8765` to listen on every interface), `localhost:PORT`, or a bare `PORT`
+/// (on 127.0.0.1). Port 0 asks the system for a free port.
+pub fn parse_addr(text: &str) -> Result<SocketAddr, LogError> {
+    let t = text.trim();
+    let bad = |reason: &str| LogError::LiveAddress { addr: text.to_string(), reason: reason.to_string() };
+    if let Ok(port) = t.parse::<u16>() {
+        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
+    }
+    if let Some(port) = t.strip_prefix("localhost:") {
+        let port = port.parse::<u16>().map_err(|_| bad("the port must be a number from 0 to 65535"))?;
+        return Ok(SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), port));
+    }
+    t.parse::<SocketAddr>().map_err(|_| {
+        bad("expected HOST:PORT with an IP address (127.0.0.1:8765, [::1]:8765, 0.0.0.0:8765) or a port number")
+    })
+}
+
+/// How the live view is served.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LiveConfig {
+    /// Where to listen ([`DEFAULT_ADDR`]: loopback only).
+    pub addr: SocketAddr,
+    /// Real-time factor while a client is connected: seconds of simulated time per
+    /// second of wall-clock time (1 = real time; 0 = as fast as the run goes).
+    pub speed: f64,
+    /// Server name shown by the Foxglove app.
+    pub name: String,
+}
+
+impl LiveConfig {
+    /// Loopback on Foxglove's usual port, in real time.
+    pub fn new(name: impl Into<String>) -> Self {
+        Self { addr: DEFAULT_ADDR, speed: 1.0, name: name.into() }
+    }
+}
+
+/// What the server, its listener and the taps share.
+struct Shared {
+    /// The SDK context the channels and the server belong to (kept alive with them).
+    _ctx: Arc<Context>,
+    /// The channels, in recorder slot order: [`CHANNELS`], then the log channel.
+    channels: Vec<Arc<RawChannel>>,
+    /// Slot of each channel id.
+    slots: HashMap<ChannelId, usize>,
+    /// Last message of each latched slot: (log time, bytes).
+    latched: Mutex<HashMap<usize, (u64, Vec<u8>)>>,
+    latched_slot: Vec<bool>,
+    clients: AtomicUsize,
+}
+
+impl Shared {
+    fn new(ctx: &Arc<Context>) -> Result<Self, String> {
+        let mut channels = Vec::new();
+        let mut slots = HashMap::new();
+        let mut latched_slot = Vec::new();
+        for (topic, schema, text) in CHANNELS.iter().chain([&LOG_CHANNEL]) {
+            let ch = ctx
+                .channel_builder(*topic)
+                .message_encoding("json")
+                .schema(Schema::new(*schema, "jsonschema", text.as_bytes().to_vec()))
+                .build_raw()
+                .map_err(|e| format!("cannot create the channel {topic}: {e}"))?;
+            slots.insert(ch.id(), channels.len());
+            latched_slot.push(LATCHED.contains(topic));
+            channels.push(ch);
+        }
+        Ok(Self {
+            _ctx: Arc::clone(ctx),
+            channels,
+            slots,
+            latched: Mutex::new(HashMap::new()),
+            latched_slot,
+            clients: AtomicUsize::new(0),
+        })
+    }
+}
+
+/// Connect/disconnect counting and latched re-sends.
+struct Listener(Arc<Shared>);
+
+impl ServerListener for Listener {
+    fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
+        let Some(&slot) = self.0.slots.get(&channel.id()) else { return };
+        let Some(sink) = client.sink_id() else { return };
+        let last = self.0.latched.lock().ok().and_then(|l| l.get(&slot).cloned());
+        if let Some((log_time, bytes)) = last {
+            let meta = PartialMetadata { log_time: Some(log_time) };
+            self.0.channels[slot].log_with_meta_to_sink(&bytes, meta, Some(sink));
+        }
+    }
+    fn on_client_connect(&self) {
+        self.0.clients.fetch_add(1, Ordering::SeqCst);
+    }
+    fn on_client_disconnect(&self) {
+        let _ = self.0.clients.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1));
+    }
+}
+
+/// A running live view; see the module documentation.
+pub struct LiveServer {
+    handle: Arc<Mutex<Option<WebSocketServerHandle>>>,
+    shared: Arc<Shared>,
+    addr: SocketAddr,
+    speed: f64,
+}
+
+impl std::fmt::Debug for LiveServer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveServer")
+            .field("addr", &self.addr)
+            .field("speed", &self.speed)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Starts a server on `addr` (port 0: a free one) with the given capabilities.
+fn start_server(
+    ctx: &Arc<Context>,
+    addr: SocketAddr,
+    name: &str,
+    capabilities: Vec<Capability>,
+    listener: Arc<dyn ServerListener>,
+    time_range: Option<(u64, u64)>,
+) -> Result<WebSocketServerHandle, LogError> {
+    let mut server = ctx
+        .websocket_server()
+        .name(name)
+        .capabilities(capabilities)
+        .listener(listener)
+        .bind(addr.ip().to_string(), addr.port());
+    if let Some((start, end)) = time_range {
+        server = server.playback_time_range(start, end);
+    }
+    server.start_blocking().map_err(|e| {
+        let text = e.to_string();
+        let hint = if text.contains("in use") {
+            "; another program (another `mmq --live`?) has that port: stop it or name another port"
+        } else if text.contains("assign") || text.contains("not available") {
+            "; that address is not one of this machine's"
+        } else {
+            ""
+        };
+        LogError::LiveServer { addr, message: format!("{text}{hint}") }
+    })
+}
+
+impl LiveServer {
+    /// Starts listening; returns once the server accepts connections.
+    pub fn start(config: &LiveConfig) -> Result<Self, LogError> {
+        if !(config.speed.is_finite() && config.speed >= 0.0) {
+            return Err(LogError::LiveAddress {
+                addr: config.addr.to_string(),
+                reason: format!("the real-time factor must be ≥ 0 (0: no pacing), got {}", config.speed),
+            });
+        }
+        let ctx = Context::new();
+        let shared = Arc::new(
+            Shared::new(&ctx).map_err(|message| LogError::LiveServer { addr: config.addr, message })?,
+        );
+        let listener = Arc::new(Listener(Arc::clone(&shared)));
+        let handle = start_server(&ctx, config.addr, &config.name, vec![Capability::Time], listener, None)?;
+        let addr = SocketAddr::new(config.addr.ip(), handle.port());
+        Ok(Self { handle: Arc::new(Mutex::new(Some(handle))), shared, addr, speed: config.speed })
+    }
+
+    /// The address it listens on (with the port the system chose for port 0).
+    pub fn addr(&self) -> SocketAddr {
+        self.addr
+    }
+
+    /// Clients connected now.
+    pub fn clients(&self) -> usize {
+        self.shared.clients.load(Ordering::SeqCst)
+    }
+
+    /// A tap for a recorder (one per run shown).
+    pub fn tap(&self) -> LiveTap {
+        LiveTap {
+            shared: Arc::clone(&self.shared),
+            handle: Arc::clone(&self.handle),
+            scratch: Vec::new(),
+            pose: PoseJson::default(),
+            speed: self.speed,
+            anchor: None,
+            last_time_sent: None,
+        }
+    }
+
+    /// Stops the server: clients are disconnected, the port is freed. Waits for it.
+    pub fn stop(self) {
+        let h = self.handle.lock().ok().and_then(|mut h| h.take());
+        if let Some(h) = h {
+            h.stop().wait_blocking();
+        }
+    }
+}
+
+/// A recorder's way to the live view: sends messages to the subscribed clients, keeps
+/// the latched topics' last message, advertises simulated time and paces the run.
+pub struct LiveTap {
+    shared: Arc<Shared>,
+    handle: Arc<Mutex<Option<WebSocketServerHandle>>>,
+    scratch: Vec<u8>,
+    pose: PoseJson,
+    speed: f64,
+    /// Pacing reference: (wall clock, simulated ns) when pacing started.
+    anchor: Option<(Instant, u64)>,
+    last_time_sent: Option<u64>,
+}
+
+impl std::fmt::Debug for LiveTap {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveTap").field("speed", &self.speed).finish_non_exhaustive()
+    }
+}
+
+/// Pacing lets the run fall this far behind before it stops trying to catch up.
+const MAX_LAG: Duration = Duration::from_millis(250);
+
+/// Longest single sleep while pacing.
+const PACE_SLICE: Duration = Duration::from_millis(20);
+
+impl LiveTap {
+    /// A client is connected.
+    pub(crate) fn has_clients(&self) -> bool {
+        self.shared.clients.load(Ordering::Relaxed) > 0
+    }
+
+    /// The message of `slot` is worth serializing: it is latched, or someone listens.
+    pub(crate) fn wants(&self, slot: usize) -> bool {
+        self.shared.latched_slot.get(slot).copied().unwrap_or(false)
+            || self.shared.channels.get(slot).is_some_and(|c| c.has_sinks())
+    }
+
+    /// Serializes a message with `write` into the tap's buffer, sends it, and returns
+    /// its bytes.
+    pub(crate) fn send(&mut self, slot: usize, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) -> &[u8] {
+        self.scratch.clear();
+        write(&mut self.scratch);
+        if self.shared.latched_slot[slot]
+            && let Ok(mut l) = self.shared.latched.lock()
+        {
+            l.insert(slot, (log_time, self.scratch.clone()));
+        }
+        let ch = &self.shared.channels[slot];
+        if ch.has_sinks() {
+            ch.log_with_meta(&self.scratch, PartialMetadata { log_time: Some(log_time) });
+            self.pace(log_time);
+        }
+        &self.scratch
+    }
+
+    /// Sends a pose on `/tf` (slot `tf`) and `/robot/pose` (slot `pose`), with the
+    /// recording's bytes.
+    pub(crate) fn pose(&mut self, tf: usize, pose: usize, log_time: u64, x: f64, y: f64, theta: f64) {
+        let (c_tf, c_pose) = (&self.shared.channels[tf], &self.shared.channels[pose]);
+        let (a, b) = (c_tf.has_sinks(), c_pose.has_sinks());
+        if !(a || b) {
+            return;
+        }
+        self.pose.set(log_time, x, y, theta);
+        let meta = PartialMetadata { log_time: Some(log_time) };
+        if a {
+            self.scratch.clear();
+            self.pose.frame_transform(&mut self.scratch);
+            c_tf.log_with_meta(&self.scratch, meta);
+        }
+        if b {
+            self.scratch.clear();
+            self.pose.pose_in_frame(&mut self.scratch);
+            c_pose.log_with_meta(&self.scratch, meta);
+        }
+        self.pace(log_time);
+    }
+
+    /// The end of a step at simulated time `log_time`: advertises the time.
+    pub(crate) fn step_end(&mut self, log_time: u64) {
+        if !self.has_clients() || self.last_time_sent == Some(log_time) {
+            return;
+        }
+        self.last_time_sent = Some(log_time);
+        if let Ok(h) = self.handle.lock()
+            && let Some(h) = h.as_ref()
+        {
+            h.broadcast_time(log_time);
+        }
+    }
+
+    /// Waits until wall-clock time catches up with `log_time` at the tap's speed.
+    fn pace(&mut self, log_time: u64) {
+        if self.speed <= 0.0 || !self.has_clients() {
+            self.anchor = None;
+            return;
+        }
+        let now = Instant::now();
+        let (wall0, sim0) = *self.anchor.get_or_insert((now, log_time));
+        let ahead_s = log_time.saturating_sub(sim0) as f64 * 1e-9 / self.speed;
+        let due = wall0.checked_add(Duration::from_secs_f64(ahead_s.min(1e9))).unwrap_or(now);
+        if due > now {
+            // In slices, so that a client leaving lets the run go at once.
+            loop {
+                let left = due.saturating_duration_since(Instant::now());
+                if left.is_zero() || !self.has_clients() {
+                    break;
+                }
+                std::thread::sleep(left.min(PACE_SLICE));
+            }
+        } else if now - due > MAX_LAG {
+            // Behind (a slow step, a time jump): start again from here, no burst.
+            self.anchor = Some((now, log_time));
+        }
+    }
+}

@@ -1,0 +1,368 @@
+//! What the recorder writes for each observer hook: the run's start (metadata,
+//! attachments, scenes, the first pose), each step (decision, motion, rewards, teleport),
+//! the heat maps, and the end.
+
+use std::collections::BTreeMap;
+
+use mmq_core::{Event, Move, Observer, PoseSample, RunInfo, State, StepRecord};
+
+use super::scenes::{ESTIMATE_FRAME, arena_scene, estimate_scene, heatmap, robot_radius, robot_scene};
+use super::{CHUNK_SIZE, Ch, McapRecorder, RecorderConfig, Run, ns};
+use crate::messages as m;
+
+impl Observer for McapRecorder {
+    fn trace_period_s(&self) -> Option<f64> {
+        Some(self.config.trace_period_s())
+    }
+
+    fn on_start(&mut self, info: &RunInfo<'_>, initial_state: State, sim_time_s: f64) {
+        let world = info.world.clone();
+        let grid = info.env_kind == "grid";
+        let fact_period = info
+            .facts
+            .iter()
+            .find(|(k, _)| k == "grid_step_period_s")
+            .and_then(|(_, v)| v.parse::<f64>().ok())
+            .filter(|p| p.is_finite() && *p > 0.0)
+            .map(ns);
+        self.period_ns = self
+            .config
+            .step_period_ns
+            .or(fact_period)
+            .unwrap_or(RecorderConfig::DEFAULT_STEP_PERIOD_NS)
+            .max(1);
+        let start_ns = if grid { 0 } else { ns(sim_time_s) };
+        self.step_start_s = sim_time_s;
+        // The start pose is written below; the trace's samples follow one period later.
+        self.next_pose_s =
+            sim_time_s + if self.config.pose_rate_hz > 0.0 { 1.0 / self.config.pose_rate_hz } else { 0.0 };
+        let radius = robot_radius(info);
+        let ts = m::Time::from_ns(start_ns);
+        let arena_json = serde_json::to_vec(&arena_scene(&world, ts)).expect("JSON of a scene");
+        let robot_json = serde_json::to_vec(&robot_scene(radius, ts)).expect("JSON of a scene");
+        let estimate_json = serde_json::to_vec(&estimate_scene(radius, ts)).expect("JSON of a scene");
+        let config = &self.config;
+        let mut run: BTreeMap<String, String> = BTreeMap::new();
+        let mut put = |k: &str, v: String| {
+            run.insert(k.to_string(), v);
+        };
+        put("seed", info.seed.to_string());
+        put("learner", info.learner.to_string());
+        put("env_kind", info.env_kind.to_string());
+        put("world", world.name.clone());
+        put("world_size", format!("{}x{}", world.width, world.height));
+        put("cell_size_m", world.cell_size.to_string());
+        put("actions", info.action_names.join(","));
+        put("initial_state", initial_state.to_string());
+        put("mmq_log_version", env!("CARGO_PKG_VERSION").to_string());
+        put("mcap_library", mcap::LIBRARY_IDENTIFIER.to_string());
+        for (k, v) in info.facts {
+            put(k, v.clone());
+        }
+        let recorder: BTreeMap<String, String> = [
+            ("time_base", "log_time = simulated ns since run start".to_string()),
+            ("step_period_ns", if grid { self.period_ns.to_string() } else { "n/a (robot clock)".into() }),
+            ("pose_rate_hz", config.pose_rate_hz.to_string()),
+            (
+                "window",
+                config.window.map_or("all".into(), |w| {
+                    format!("first {} and last {} of {}", w.first, w.last, w.total)
+                }),
+            ),
+            ("flush_every_steps", config.flush_every_steps.to_string()),
+            (
+                "compression",
+                format!("zstd level {}, chunks of {} KiB", config.compression_level, CHUNK_SIZE >> 10),
+            ),
+            ("robot_radius_m", radius.to_string()),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+        if let Some(w) = self.writer.as_mut() {
+            let r = w
+                .metadata("run", &run)
+                .and_then(|()| w.metadata("recorder", &recorder))
+                .and_then(|()| w.attach("world.toml", "application/toml", start_ns, world.source.as_bytes()))
+                .and_then(|()| {
+                    w.attach("config.toml", "application/toml", start_ns, info.config_toml.as_bytes())
+                });
+            if let Err(e) = r {
+                self.fail(e);
+            }
+        }
+        self.run = Some(Run {
+            world,
+            grid,
+            action_names: info.action_names.to_vec(),
+            arena_json,
+            robot_json,
+            estimate_json,
+            estimates_seen: false,
+        });
+        self.write_scenes(start_ns);
+        self.heading = 0.0;
+        if grid || initial_state < info.world.num_cells() {
+            self.write_cell_pose(start_ns, initial_state);
+        }
+        self.prev_recorded = true;
+        self.note(
+            start_ns,
+            m::LOG_INFO,
+            format!(
+                "run start: {} on {} ({}), seed {}, initial state {initial_state}",
+                info.learner, info.world.name, info.env_kind, info.seed
+            ),
+        );
+    }
+
+    fn on_step(&mut self, rec: &StepRecord<'_>) {
+        let Some(run) = &self.run else { return };
+        let grid = run.grid;
+        let t = rec.t;
+        let period = self.period_ns;
+        // Step times (robot: keep the clock monotonic even if the environment resets it).
+        let mut end_s = rec.sim_time_s + self.time_offset_s;
+        if !grid && end_s + 1e-9 < self.step_start_s {
+            self.time_offset_s = self.step_start_s;
+            end_s = rec.sim_time_s + self.time_offset_s;
+        }
+        let (start_ns, end_ns) =
+            if grid { (t * period, (t + 1) * period) } else { (ns(self.step_start_s), ns(end_s)) };
+        // Running figures are kept over every step, recorded or not.
+        let emission = (rec.emitted != 0.0).then(|| {
+            let (id, delay) = match rec.emission() {
+                Some(e) => (e.id, e.delay),
+                None => (self.next_emission_id, rec.delay.unwrap_or(0)),
+            };
+            self.next_emission_id = id + 1;
+            self.emitted_total += rec.emitted;
+            (id, delay)
+        });
+        self.delivered_total += rec.delivered;
+        let recorded = self.config.window.is_none_or(|w| w.contains(t)) && self.active();
+        self.stats.steps_seen += 1;
+        if recorded {
+            self.stats.steps_recorded += 1;
+            let action_name =
+                run.action_names.get(rec.action).cloned().unwrap_or_else(|| rec.action.to_string());
+            if (grid || rec.trace.poses.is_empty()) && !self.prev_recorded {
+                // Entering a window: show where the decision is taken.
+                self.write_cell_pose(start_ns, rec.state);
+            }
+            let decision = m::Decision {
+                t,
+                state: rec.state as u64,
+                action: rec.action as u64,
+                action_name,
+                model: rec.model.map(|x| x as u64),
+                explored: rec.explored,
+                next_state: rec.next_state as u64,
+                event: rec.event.name().to_string(),
+            };
+            self.write(Ch::Decision, start_ns, &decision);
+            self.write_motion(rec, grid, end_ns);
+            if let Some((id, delay)) = emission {
+                let cause = match rec.event {
+                    Event::WallBump => "wall",
+                    Event::Teleport => "goal",
+                    Event::Moved | Event::TimedOut => "step",
+                };
+                let msg = m::RewardEmitted {
+                    id,
+                    t,
+                    value: rec.emitted,
+                    cause: cause.into(),
+                    delay,
+                    due: t + u64::from(delay),
+                    total: self.emitted_total,
+                };
+                self.write(Ch::Emitted, end_ns, &msg);
+            }
+            if rec.delivered != 0.0 || !rec.delivered_ids.is_empty() {
+                let parts = rec
+                    .ledger
+                    .map(|l| {
+                        rec.delivered_ids
+                            .iter()
+                            .filter_map(|&id| l.get(id))
+                            .map(|e| m::DeliveredPart {
+                                id: e.id,
+                                t_emit: e.t_emit,
+                                delay: e.delay,
+                                value: e.value,
+                            })
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                let msg = m::RewardDelivered {
+                    t,
+                    sum: rec.delivered,
+                    ids: rec.delivered_ids.to_vec(),
+                    parts,
+                    total: self.delivered_total,
+                };
+                self.write(Ch::Delivered, end_ns, &msg);
+            }
+            if rec.event == Event::Teleport {
+                let center = |s: State| {
+                    let w = &self.run.as_ref().expect("run started").world;
+                    let (x, y) = if s < w.num_cells() { w.cell_center(s) } else { (f64::NAN, f64::NAN) };
+                    m::Point2 { x, y }
+                };
+                let msg = m::Teleport {
+                    t,
+                    from_state: rec.state as u64,
+                    to_state: rec.next_state as u64,
+                    from: center(rec.state),
+                    to: center(rec.next_state),
+                };
+                self.write(Ch::Teleport, end_ns, &msg);
+                self.write_scenes(end_ns);
+            }
+        } else if let Some(p) = rec.trace.poses.last() {
+            // Keep the thinning clock moving while skipping.
+            self.next_pose_s = self.next_pose_s.max(p.time_s + self.time_offset_s);
+        }
+        self.prev_recorded = recorded;
+        if let Some(live) = self.live.as_mut().filter(|_| recorded) {
+            live.step_end(end_ns);
+        }
+        self.step_start_s = if grid { ((t + 1) * period) as f64 * 1e-9 } else { end_s };
+        self.maybe_flush();
+    }
+
+    fn on_tables(&mut self, t: u64, sim_time_s: f64, visits: &[f64], values: &[f64]) {
+        if !self.config.heatmaps {
+            return;
+        }
+        let Some(run) = &self.run else { return };
+        let log_time = if run.grid { t * self.period_ns } else { ns(sim_time_s + self.time_offset_s) };
+        let n = run.world.num_cells();
+        if visits.len() != n || values.len() != n {
+            let msg = format!(
+                "heat maps skipped at step {t}: {} visit and {} value entries for {n} cells",
+                visits.len(),
+                values.len()
+            );
+            self.note(log_time, m::LOG_WARNING, msg);
+            return;
+        }
+        let visits = heatmap(&run.world, log_time, "visits", visits);
+        let value = heatmap(&run.world, log_time, "value", values);
+        self.write(Ch::Visits, log_time, &visits);
+        self.write(Ch::Value, log_time, &value);
+    }
+
+    fn on_finish(&mut self, t: u64, complete: bool) {
+        if let Err(e) = self.finish(t, complete) {
+            self.error = Some(e);
+        }
+    }
+}
+
+impl McapRecorder {
+    /// Poses and contacts of a step, in time order.
+    fn write_motion(&mut self, rec: &StepRecord<'_>, grid: bool, end_ns: u64) {
+        let trace = rec.trace;
+        if grid || trace.poses.is_empty() {
+            if let Some(h) = move_heading(rec.action).filter(|_| grid) {
+                self.heading = h;
+            }
+            if rec.event == Event::Teleport {
+                self.heading = 0.0;
+            }
+            for c in &trace.contacts {
+                self.write_contact(rec.t, c);
+            }
+            self.write_cell_pose(end_ns, rec.next_state);
+            return;
+        }
+        let period = if self.config.pose_rate_hz > 0.0 { 1.0 / self.config.pose_rate_hz } else { 0.0 };
+        let off = self.time_offset_s;
+        let mut contacts = trace.contacts.iter().peekable();
+        let mut fixes = trace.fixes.iter().peekable();
+        let last = trace.poses.len() - 1;
+        for (i, p) in trace.poses.iter().enumerate() {
+            let time = p.time_s + off;
+            while let Some(c) = contacts.next_if(|c| c.time_s + off <= time) {
+                self.write_contact(rec.t, c);
+            }
+            while let Some(f) = fixes.next_if(|f| f.time_s + off <= time) {
+                self.write_fix(f);
+            }
+            // The step's last sample (its end pose, after a teleport too) is always kept.
+            if period == 0.0 || time + 1e-9 >= self.next_pose_s || i == last {
+                self.write_pose(ns(time), p.x, p.y, p.theta);
+                // The estimate is sampled at the same times as the true pose.
+                if let Some(e) = trace.estimates.get(i) {
+                    self.write_estimate(e);
+                }
+                if period > 0.0 {
+                    self.next_pose_s = ((time / period + 1e-9).floor() + 1.0) * period;
+                }
+            }
+        }
+        for c in contacts {
+            self.write_contact(rec.t, c);
+        }
+        for f in fixes {
+            self.write_fix(f);
+        }
+    }
+
+    /// The robot's pose estimate: `/tf` world → robot_estimate and `/robot/pose_estimate`;
+    /// the first one also brings the estimate's body (`/viz/robot_estimate`).
+    fn write_estimate(&mut self, e: &PoseSample) {
+        let time_ns = ns(e.time_s + self.time_offset_s);
+        let first = self.run.as_mut().is_some_and(|r| !std::mem::replace(&mut r.estimates_seen, true));
+        if first {
+            let bytes = self.run.as_ref().map(|r| r.estimate_json.clone()).unwrap_or_default();
+            self.write_bytes(Ch::RobotEstimate, time_ns, &bytes);
+        }
+        let ts = m::Time::from_ns(time_ns);
+        let tf = m::FrameTransform {
+            timestamp: ts,
+            parent_frame_id: "world".into(),
+            child_frame_id: ESTIMATE_FRAME.into(),
+            translation: m::Vector3 { x: e.x, y: e.y, z: 0.0 },
+            rotation: m::Quaternion::yaw(e.theta),
+        };
+        self.write(Ch::Tf, time_ns, &tf);
+        let pose = m::PoseInFrame {
+            timestamp: ts,
+            frame_id: "world".into(),
+            pose: m::Pose::planar(e.x, e.y, 0.0, e.theta),
+        };
+        self.write(Ch::PoseEstimate, time_ns, &pose);
+    }
+
+    /// A localisation fix on `/robot/fix`, at the time it was received.
+    fn write_fix(&mut self, f: &PoseSample) {
+        let time_ns = ns(f.time_s + self.time_offset_s);
+        let ts = m::Time::from_ns(time_ns);
+        let pose = m::PoseInFrame {
+            timestamp: ts,
+            frame_id: "world".into(),
+            pose: m::Pose::planar(f.x, f.y, 0.0, f.theta),
+        };
+        self.write(Ch::Fix, time_ns, &pose);
+    }
+
+    fn write_contact(&mut self, t: u64, c: &mmq_core::ContactSample) {
+        let time_s = c.time_s + self.time_offset_s;
+        let msg = m::Contact { t, time_s, started: c.started, wall: c.wall.clone() };
+        self.write(Ch::Contact, ns(time_s), &msg);
+    }
+}
+
+/// Heading of a grid move: E 0, N π/2, W π, S −π/2.
+fn move_heading(a: usize) -> Option<f64> {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    Move::from_index(a).map(|m| match m {
+        Move::E => 0.0,
+        Move::N => FRAC_PI_2,
+        Move::W => PI,
+        Move::S => -FRAC_PI_2,
+    })
+}

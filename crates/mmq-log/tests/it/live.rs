@@ -1,0 +1,368 @@
+//! The live view and the replay server, seen by a WebSocket client speaking Foxglove's
+//! protocol (subprotocol `foxglove.sdk.v1`): what arrives validates against the
+//! advertised schemas, latched scenes reach late subscribers, seeking works, a client
+//! that leaves does not hold the run, and stopping frees the port. Servers bind to free
+//! ports on 127.0.0.1 only.
+
+use std::collections::HashMap;
+use std::net::{SocketAddr, TcpListener, TcpStream};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use mmq_log::live::{LiveConfig, LiveServer, parse_addr, replay};
+use mmq_log::messages::topics;
+use mmq_log::{McapRecorder, RecorderConfig};
+use serde_json::Value;
+use tungstenite::client::IntoClientRequest;
+use tungstenite::{Message, WebSocket};
+
+use crate::common;
+use crate::schemas::check;
+
+/// A message from the server.
+#[derive(Debug)]
+enum In {
+    Json,
+    Data { sub: u32, log_time: u64, payload: Vec<u8> },
+    Time(u64),
+    Playback { status: u8, current: u64, did_seek: bool },
+    Closed,
+}
+
+/// A Foxglove WebSocket client.
+struct Client {
+    ws: WebSocket<TcpStream>,
+    /// Advertised channels by topic: (id, schema).
+    channels: HashMap<String, (u64, Value)>,
+    /// Subscription id → topic.
+    subs: HashMap<u32, String>,
+    /// The server's `serverInfo`.
+    info: Value,
+}
+
+impl Client {
+    fn connect(addr: SocketAddr) -> Self {
+        let stream = TcpStream::connect(addr).unwrap();
+        stream.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
+        let mut req = format!("ws://{addr}").into_client_request().unwrap();
+        req.headers_mut().insert("Sec-WebSocket-Protocol", "foxglove.sdk.v1".parse().unwrap());
+        let (ws, resp) = tungstenite::client::client(req, stream).unwrap();
+        assert_eq!(resp.headers()["Sec-WebSocket-Protocol"], "foxglove.sdk.v1");
+        let mut c = Self { ws, channels: HashMap::new(), subs: HashMap::new(), info: Value::Null };
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while c.channels.len() < 5 {
+            assert!(Instant::now() < deadline, "no advertisement");
+            let _ = c.next();
+        }
+        c
+    }
+
+    /// The next message, `None` on a read timeout.
+    fn next(&mut self) -> Option<In> {
+        let msg = match self.ws.read() {
+            Ok(m) => m,
+            Err(tungstenite::Error::Io(e))
+                if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) =>
+            {
+                return None;
+            }
+            Err(_) => return Some(In::Closed),
+        };
+        Some(match msg {
+            Message::Text(t) => {
+                let v: Value = serde_json::from_str(&t).unwrap();
+                if v["op"] == "advertise" {
+                    for ch in v["channels"].as_array().unwrap() {
+                        assert_eq!(ch["encoding"], "json");
+                        assert_eq!(ch["schemaEncoding"], "jsonschema");
+                        let schema = serde_json::from_str(ch["schema"].as_str().unwrap()).unwrap();
+                        self.channels.insert(
+                            ch["topic"].as_str().unwrap().into(),
+                            (ch["id"].as_u64().unwrap(), schema),
+                        );
+                    }
+                }
+                if v["op"] == "serverInfo" {
+                    self.info = v;
+                }
+                In::Json
+            }
+            Message::Binary(b) => {
+                let u64_at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
+                match b[0] {
+                    1 => In::Data {
+                        sub: u32::from_le_bytes(b[1..5].try_into().unwrap()),
+                        log_time: u64_at(5),
+                        payload: b[13..].to_vec(),
+                    },
+                    2 => In::Time(u64_at(1)),
+                    5 => In::Playback { status: b[1], current: u64_at(2), did_seek: b[14] != 0 },
+                    op => panic!("unexpected binary opcode {op}"),
+                }
+            }
+            Message::Close(_) => In::Closed,
+            _ => return None,
+        })
+    }
+
+    fn subscribe(&mut self, topics: &[&str]) {
+        let mut subs = Vec::new();
+        for t in topics {
+            let id = self.subs.len() as u32 + 1;
+            let (ch, _) = self.channels.get(*t).unwrap_or_else(|| panic!("{t} not advertised"));
+            subs.push(serde_json::json!({"id": id, "channelId": ch}));
+            self.subs.insert(id, t.to_string());
+        }
+        let m = serde_json::json!({"op": "subscribe", "subscriptions": subs});
+        self.ws.send(Message::Text(m.to_string().into())).unwrap();
+    }
+
+    /// Reads until `want` returns true for a message, or `secs` pass; returns the
+    /// messages read, (topic, log time, JSON), each checked against its schema.
+    fn until(
+        &mut self,
+        secs: f64,
+        mut want: impl FnMut(&In, Option<&str>) -> bool,
+    ) -> (bool, Vec<(String, u64, Value)>) {
+        let deadline = Instant::now() + Duration::from_secs_f64(secs);
+        let mut got = Vec::new();
+        while Instant::now() < deadline {
+            let Some(m) = self.next() else { continue };
+            let topic = match &m {
+                In::Data { sub, log_time, payload } => {
+                    let topic = self.subs[sub].clone();
+                    let v: Value = serde_json::from_slice(payload).unwrap();
+                    let schema = &self.channels[&topic].1;
+                    if let Err(e) = check(schema, &v, "") {
+                        panic!("{topic} at {log_time} does not validate: {e}\n{v}");
+                    }
+                    got.push((topic.clone(), *log_time, v));
+                    Some(topic)
+                }
+                _ => None,
+            };
+            if want(&m, topic.as_deref()) {
+                return (true, got);
+            }
+        }
+        (false, got)
+    }
+
+    fn playback(&mut self, play: bool, speed: f32, seek: Option<u64>) {
+        let mut b = vec![3u8, if play { 0 } else { 1 }];
+        b.extend_from_slice(&speed.to_le_bytes());
+        b.push(u8::from(seek.is_some()));
+        b.extend_from_slice(&seek.unwrap_or(0).to_le_bytes());
+        b.extend_from_slice(&2u32.to_le_bytes());
+        b.extend_from_slice(b"r1");
+        self.ws.send(Message::Binary(b.into())).unwrap();
+    }
+}
+
+fn local(speed: f64) -> LiveConfig {
+    LiveConfig { addr: "127.0.0.1:0".parse().unwrap(), speed, name: "test".into() }
+}
+
+/// Runs a live-only grid run of `steps` on its own thread; returns it.
+fn run_live(
+    server: &LiveServer,
+    steps: u64,
+    started: Arc<AtomicBool>,
+    go: Arc<AtomicBool>,
+) -> std::thread::JoinHandle<Duration> {
+    let tap = server.tap();
+    std::thread::spawn(move || {
+        let rec = McapRecorder::live_only(RecorderConfig::new(""), tap);
+        let mut gate = Gate { rec, started, go };
+        let t0 = Instant::now();
+        common::run_grid(&common::world("paper-9x9"), &mut gate, steps, 5, 200);
+        t0.elapsed()
+    })
+}
+
+/// Passes everything to the recorder, and waits after `on_start` until told to go.
+struct Gate {
+    rec: McapRecorder,
+    started: Arc<AtomicBool>,
+    go: Arc<AtomicBool>,
+}
+
+impl mmq_core::Observer for Gate {
+    fn on_start(&mut self, info: &mmq_core::RunInfo<'_>, s: usize, t: f64) {
+        self.rec.on_start(info, s, t);
+        self.started.store(true, Ordering::SeqCst);
+        while !self.go.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+    fn on_step(&mut self, r: &mmq_core::StepRecord<'_>) {
+        self.rec.on_step(r);
+    }
+    fn on_tables(&mut self, t: u64, s: f64, v: &[f64], q: &[f64]) {
+        self.rec.on_tables(t, s, v, q);
+    }
+    fn on_finish(&mut self, t: u64, c: bool) {
+        self.rec.on_finish(t, c);
+    }
+}
+
+fn wait_for(flag: &AtomicBool) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while !flag.load(Ordering::SeqCst) {
+        assert!(Instant::now() < deadline);
+        std::thread::sleep(Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn a_client_sees_the_run_and_a_late_one_gets_the_arena() {
+    // 50× real time: 1000 steps of 0.1 s in 2 s while the client watches.
+    let server = LiveServer::start(&local(50.0)).unwrap();
+    assert!(server.addr().ip().is_loopback() && server.addr().port() != 0);
+    let (started, go) = (Arc::new(AtomicBool::new(false)), Arc::new(AtomicBool::new(false)));
+    let run = run_live(&server, 1000, started.clone(), go.clone());
+    wait_for(&started);
+    let mut c = Client::connect(server.addr());
+    assert!(c.info["capabilities"].as_array().unwrap().contains(&Value::from("time")), "{}", c.info);
+    for t in [topics::TF, topics::ARENA, topics::ROBOT, topics::DECISION, topics::EMITTED, topics::VISITS] {
+        assert!(c.channels.contains_key(t), "{t}");
+    }
+    c.subscribe(&[topics::TF, topics::ARENA, topics::DECISION, topics::VISITS]);
+    // The arena was drawn before anyone connected: it is latched.
+    let (ok, _) = c.until(10.0, |_, t| t == Some(topics::ARENA));
+    assert!(ok, "no arena");
+    go.store(true, Ordering::SeqCst);
+    // Simulated time is advertised as the run goes.
+    let mut times = Vec::new();
+    let (ok, got) = c.until(20.0, |m, _| {
+        if let In::Time(t) = m {
+            times.push(*t);
+        }
+        times.len() >= 20
+    });
+    assert!(ok, "{} time messages", times.len());
+    assert!(times.windows(2).all(|w| w[0] < w[1]) && times.iter().all(|t| t % 100_000_000 == 0), "{times:?}");
+    let tf: Vec<_> = got.iter().filter(|(t, _, _)| t == topics::TF).collect();
+    let decisions: Vec<_> = got.iter().filter(|(t, _, _)| t == topics::DECISION).collect();
+    assert!(!tf.is_empty() && !decisions.is_empty(), "{} tf, {} decisions", tf.len(), decisions.len());
+    // Simulated time: a decision at step t is stamped t × 100 ms.
+    for (_, time, v) in &decisions {
+        assert_eq!(*time, v["t"].as_u64().unwrap() * 100_000_000);
+    }
+    // A second client, late: it gets the arena at once.
+    let mut late = Client::connect(server.addr());
+    late.subscribe(&[topics::ARENA]);
+    let (ok, got) = late.until(30.0, |_, t| t == Some(topics::ARENA));
+    assert!(ok, "the late client got no arena");
+    assert_eq!(got.last().unwrap().2["entities"][0]["id"], "arena");
+    run.join().unwrap();
+    server.stop();
+}
+
+#[test]
+fn a_client_that_leaves_does_not_hold_the_run() {
+    // Paced at 1/1000 of real time while a client watches: 3000 steps of 0.1 s would
+    // take days. The client leaves, and the run goes on at full speed.
+    let server = LiveServer::start(&local(1e-3)).unwrap();
+    let (started, go) = (Arc::new(AtomicBool::new(false)), Arc::new(AtomicBool::new(false)));
+    let run = run_live(&server, 3000, started.clone(), go.clone());
+    wait_for(&started);
+    let mut c = Client::connect(server.addr());
+    c.subscribe(&[topics::TF, topics::DECISION]);
+    go.store(true, Ordering::SeqCst);
+    let (ok, _) = c.until(10.0, |_, t| t == Some(topics::DECISION));
+    assert!(ok, "no decision");
+    drop(c);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !run.is_finished() {
+        assert!(Instant::now() < deadline, "the run is still held after its client left");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    run.join().unwrap();
+    assert_eq!(server.clients(), 0);
+    server.stop();
+}
+
+#[test]
+fn stopping_closes_clients_and_frees_the_port() {
+    let server = LiveServer::start(&local(1.0)).unwrap();
+    let addr = server.addr();
+    let mut c = Client::connect(addr);
+    server.stop();
+    let (closed, _) = c.until(10.0, |m, _| matches!(m, In::Closed));
+    assert!(closed, "the client was not disconnected");
+    // The port is free again.
+    let again = LiveServer::start(&LiveConfig { addr, ..local(1.0) }).unwrap();
+    again.stop();
+}
+
+#[test]
+fn a_port_in_use_and_bad_addresses_are_clear_errors() {
+    let taken = TcpListener::bind("127.0.0.1:0").unwrap();
+    let addr = taken.local_addr().unwrap();
+    let e = LiveServer::start(&LiveConfig { addr, ..local(1.0) }).unwrap_err();
+    let text = e.to_string();
+    assert!(text.contains(&addr.to_string()) && text.contains("in use"), "{text}");
+    assert!(!e.is_input_error());
+    for bad in ["localhost:http", "127.0.0.1:99999", "my laptop", ""] {
+        let e = parse_addr(bad).unwrap_err();
+        let text = e.to_string();
+        assert!(e.is_input_error() && text.contains(&format!("`{bad}`")), "{text}");
+        assert!(text.contains("HOST:PORT") || text.contains("port must be a number"), "{text}");
+    }
+    assert_eq!(parse_addr("9000").unwrap(), "127.0.0.1:9000".parse().unwrap());
+    assert_eq!(parse_addr("localhost:9000").unwrap(), "127.0.0.1:9000".parse().unwrap());
+    assert_eq!(parse_addr("[::1]:9000").unwrap(), "[::1]:9000".parse().unwrap());
+    assert_eq!(mmq_log::live::DEFAULT_ADDR, "127.0.0.1:8765".parse().unwrap());
+}
+
+#[test]
+fn a_served_file_plays_pauses_and_seeks() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("g.mcap");
+    common::record_grid(&path, |_| {}, 2000, 9);
+    let server = replay::serve_file(&path, &local(1.0)).unwrap();
+    let (t0, t1) = server.time_range();
+    assert_eq!((t0, t1), (0, 2000 * 100_000_000));
+    let addr = server.addr();
+    let stop = Arc::new(AtomicBool::new(false));
+    let player = {
+        let stop = stop.clone();
+        std::thread::spawn(move || server.run(&stop))
+    };
+    let mut c = Client::connect(addr);
+    assert!(
+        c.info["capabilities"].as_array().unwrap().contains(&Value::from("playbackControl")),
+        "{}",
+        c.info
+    );
+    c.subscribe(&[topics::DECISION, topics::ARENA, topics::TF]);
+    // A late subscriber to a paused file gets the arena all the same.
+    let (ok, _) = c.until(10.0, |_, t| t == Some(topics::ARENA));
+    assert!(ok, "no arena before playing");
+    // Seek to step 1500 and play at 10×: decisions from step 1500 on, after the arena.
+    let seek = 1500 * 100_000_000;
+    c.playback(true, 10.0, Some(seek));
+    let mut seen_state = false;
+    let (ok, got) = c.until(20.0, |m, t| {
+        if let In::Playback { did_seek, current, status } = m {
+            assert!(*did_seek && *current == seek && *status == 0, "{m:?}");
+            seen_state = true;
+        }
+        t == Some(topics::DECISION)
+    });
+    assert!(ok && seen_state, "no decision after the seek");
+    let first = got.iter().find(|(t, _, _)| t == topics::DECISION).unwrap();
+    assert_eq!(first.1, seek, "the first decision after the seek");
+    assert!(got.iter().any(|(t, _, _)| t == topics::ARENA), "the arena is re-sent on seek");
+    // Pause: the decisions stop.
+    c.playback(false, 10.0, None);
+    let _ = c.until(0.5, |_, _| false);
+    let (any, _) = c.until(1.0, |_, t| t == Some(topics::DECISION));
+    assert!(!any, "decisions while paused");
+    stop.store(true, Ordering::SeqCst);
+    player.join().unwrap();
+    let (closed, _) = c.until(10.0, |m, _| matches!(m, In::Closed));
+    assert!(closed);
+}
