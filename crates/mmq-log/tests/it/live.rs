@@ -230,12 +230,12 @@ fn a_client_sees_the_run_and_a_late_one_gets_the_arena() {
     }
     c.subscribe(&[topics::TF, topics::ARENA, topics::DECISION, topics::VISITS]);
     // The arena was drawn before anyone connected: it is latched.
-    let (ok, _) = c.until(10.0, |_, t| t == Some(topics::ARENA));
+    let (ok, _) = c.until(60.0, |_, t| t == Some(topics::ARENA));
     assert!(ok, "no arena");
     go.store(true, Ordering::SeqCst);
     // Simulated time is advertised as the run goes.
     let mut times = Vec::new();
-    let (ok, got) = c.until(20.0, |m, _| {
+    let (ok, got) = c.until(60.0, |m, _| {
         if let In::Time(t) = m {
             times.push(*t);
         }
@@ -253,7 +253,7 @@ fn a_client_sees_the_run_and_a_late_one_gets_the_arena() {
     // A second client, late: it gets the arena at once.
     let mut late = Client::connect(server.addr());
     late.subscribe(&[topics::ARENA]);
-    let (ok, got) = late.until(30.0, |_, t| t == Some(topics::ARENA));
+    let (ok, got) = late.until(60.0, |_, t| t == Some(topics::ARENA));
     assert!(ok, "the late client got no arena");
     assert_eq!(got.last().unwrap().2["entities"][0]["id"], "arena");
     run.join().unwrap();
@@ -271,8 +271,10 @@ fn a_client_that_leaves_does_not_hold_the_run() {
     let mut c = Client::connect(server.addr());
     c.subscribe(&[topics::TF, topics::DECISION]);
     go.store(true, Ordering::SeqCst);
-    let (ok, _) = c.until(10.0, |_, t| t == Some(topics::DECISION));
-    assert!(ok, "no decision");
+    // Generous: on a loaded machine the first step can be slow to come.
+    let t0 = Instant::now();
+    let (ok, _) = c.until(120.0, |_, t| t == Some(topics::DECISION));
+    assert!(ok, "no decision after {:?}", t0.elapsed());
     drop(c);
     let deadline = Instant::now() + Duration::from_secs(30);
     while !run.is_finished() {
@@ -290,7 +292,7 @@ fn stopping_closes_clients_and_frees_the_port() {
     let addr = server.addr();
     let mut c = Client::connect(addr);
     server.stop();
-    let (closed, _) = c.until(10.0, |m, _| matches!(m, In::Closed));
+    let (closed, _) = c.until(60.0, |m, _| matches!(m, In::Closed));
     assert!(closed, "the client was not disconnected");
     // The port is free again.
     let again = LiveServer::start(&LiveConfig { addr, ..local(1.0) }).unwrap();
@@ -339,13 +341,13 @@ fn a_served_file_plays_pauses_and_seeks() {
     );
     c.subscribe(&[topics::DECISION, topics::ARENA, topics::TF]);
     // A late subscriber to a paused file gets the arena all the same.
-    let (ok, _) = c.until(10.0, |_, t| t == Some(topics::ARENA));
+    let (ok, _) = c.until(60.0, |_, t| t == Some(topics::ARENA));
     assert!(ok, "no arena before playing");
     // Seek to step 1500 and play at 10×: decisions from step 1500 on, after the arena.
     let seek = 1500 * 100_000_000;
     c.playback(true, 10.0, Some(seek));
     let mut seen_state = false;
-    let (ok, got) = c.until(20.0, |m, t| {
+    let (ok, got) = c.until(60.0, |m, t| {
         if let In::Playback { did_seek, current, status } = m {
             assert!(*did_seek && *current == seek && *status == 0, "{m:?}");
             seen_state = true;
@@ -363,6 +365,6 @@ fn a_served_file_plays_pauses_and_seeks() {
     assert!(!any, "decisions while paused");
     stop.store(true, Ordering::SeqCst);
     player.join().unwrap();
-    let (closed, _) = c.until(10.0, |m, _| matches!(m, In::Closed));
+    let (closed, _) = c.until(60.0, |m, _| matches!(m, In::Closed));
     assert!(closed);
 }
