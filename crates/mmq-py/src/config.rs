@@ -12,17 +12,6 @@ use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString};
 
 use crate::ConfigError;
 
-/// The worlds shipped in `worlds/`, embedded so that `world="paper-9x9"` works from any
-/// folder.
-pub const SHIPPED: &[(&str, &str)] = &[
-    ("corridor-7x3", include_str!("../../../worlds/corridor-7x3.toml")),
-    ("maze-15x15", include_str!("../../../worlds/maze-15x15.toml")),
-    ("paper-3x3", include_str!("../../../worlds/paper-3x3.toml")),
-    ("paper-5x5", include_str!("../../../worlds/paper-5x5.toml")),
-    ("paper-9x9", include_str!("../../../worlds/paper-9x9.toml")),
-    ("room-12x6", include_str!("../../../worlds/room-12x6.toml")),
-];
-
 /// A `ConfigError` naming the argument `arg`.
 pub fn config_err(arg: &str, message: impl std::fmt::Display) -> PyErr {
     ConfigError::new_err(format!("{arg}: {message}"))
@@ -30,12 +19,13 @@ pub fn config_err(arg: &str, message: impl std::fmt::Display) -> PyErr {
 
 /// The names of the shipped worlds.
 pub fn shipped_names() -> Vec<&'static str> {
-    SHIPPED.iter().map(|(n, _)| *n).collect()
+    mmq_core::shipped::WORLDS.iter().map(|(n, _)| *n).collect()
 }
 
 /// A shipped world by name, or a world file by path.
 pub fn load_world(world: &str) -> PyResult<World> {
-    if let Some((name, text)) = SHIPPED.iter().find(|(n, _)| *n == world) {
+    // The shipped worlds are embedded once, in mmq-core.
+    if let Some((name, text)) = mmq_core::shipped::WORLDS.iter().find(|(n, _)| *n == world) {
         let mut w = World::parse(text, &format!("{name}.toml")).map_err(|e| config_err("world", e))?;
         w.name = (*name).to_string();
         return Ok(w);
