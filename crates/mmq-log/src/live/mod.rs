@@ -225,7 +225,18 @@ impl LiveServer {
         let h = self.handle.lock().ok().and_then(|mut h| h.take());
         if let Some(h) = h {
             h.stop().wait_blocking();
+            wait_port_free(self.addr);
         }
+    }
+}
+
+/// The server's accepting task closes its socket shortly after the client tasks end;
+/// waits (at most two seconds) until the port can be bound again, so a new server on
+/// the same address starts at once.
+pub(crate) fn wait_port_free(addr: SocketAddr) {
+    let deadline = Instant::now() + Duration::from_secs(2);
+    while std::net::TcpListener::bind(addr).is_err() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(10));
     }
 }
 

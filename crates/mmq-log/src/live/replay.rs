@@ -255,6 +255,7 @@ impl ReplayServer {
             std::thread::sleep(wait);
         }
         handle.stop().wait_blocking();
+        super::wait_port_free(self.addr);
     }
 
     /// Sends what is due; returns how long to wait before the next call.
