@@ -83,7 +83,7 @@ fn main() -> ExitCode {
         Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("error: {:#}", f.error);
+            eprintln!("error: {}", one_line(&f.error));
             ExitCode::from(f.code)
         }
     }
@@ -121,4 +121,27 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
             Ok(())
         }
     }
+}
+
+/// An error and its causes on one line, each said once (a message that already quotes its
+/// cause, as most I/O errors here do, is not followed by it again), with control
+/// characters escaped so that a name from a file cannot drive the terminal.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if text.contains(&c) {
+            continue;
+        }
+        if !text.is_empty() {
+            text.push_str(": ");
+        }
+        text.push_str(&c);
+    }
+    text.chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() { c.escape_debug().collect() } else { vec![c] };
+            escaped
+        })
+        .collect()
 }

@@ -76,6 +76,18 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     pb.finish_and_clear();
     let (summary, _files) = write_results(&a.out, &cfg, &world, &outcome.results, !outcome.interrupted)?;
     print_summary(&summary);
+    let failures = outcome.failures();
+    if !failures.is_empty() {
+        // The summary says incomplete; the exit code and one message per lost file say why.
+        return Err(Failure {
+            code: crate::exit::RUNTIME,
+            error: anyhow::anyhow!(
+                "{}; the summary in {} marks the run incomplete",
+                failures.join("; "),
+                a.out.display()
+            ),
+        });
+    }
     if outcome.interrupted {
         eprintln!(
             "interrupted: wrote the {} finished seed(s) to {}, marked partial",

@@ -1,9 +1,11 @@
-//! Bounded reads of input files: every file mmq reads goes through [`read_bounded`], which
-//! refuses what is not a regular file (a FIFO would block forever, `/dev/zero` would
+//! Files in and out. Bounded reads: every file mmq reads goes through [`read_bounded`],
+//! which refuses what is not a regular file (a FIFO would block forever, `/dev/zero` would
 //! never end) and stops after a size limit, so no input can hang a run or take its memory.
+//! Atomic writes: every finished output goes through [`write_atomic`], so it appears whole
+//! under its name or not at all.
 
-use std::io::Read as _;
-use std::path::Path;
+use std::io::{Read as _, Write as _};
+use std::path::{Path, PathBuf};
 
 /// Why a file was not read.
 #[derive(Debug, thiserror::Error)]
@@ -62,4 +64,29 @@ mod tests {
         assert!(matches!(read_bounded(&d.join("missing"), 100), Err(ReadError::Io(_))));
         std::fs::remove_dir_all(&d).unwrap();
     }
+}
+
+/// The temporary name `path` is written under before [`write_atomic`] renames it: a hidden
+/// file in the same folder, `.NAME.tmpPID` (the rename stays on one file system).
+pub fn temporary_name(path: &Path) -> PathBuf {
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp{}", std::process::id()))
+}
+
+/// Writes `bytes` to `path` atomically: to a temporary file in the same folder, synced,
+/// then renamed over `path`. A kill at any instant leaves the old file or the new one; a
+/// failed write (a full disk, a file-size limit) leaves no temporary file and returns the
+/// error. Creates the parent folder if needed.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)?;
+    }
+    let tmp = temporary_name(path);
+    let written = std::fs::File::create(&tmp).and_then(|mut f| {
+        f.write_all(bytes)?;
+        f.sync_all()
+    });
+    written.and_then(|()| std::fs::rename(&tmp, path)).inspect_err(|_| {
+        let _ = std::fs::remove_file(&tmp);
+    })
 }

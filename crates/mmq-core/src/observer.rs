@@ -84,4 +84,10 @@ pub trait Observer {
     fn on_tables(&mut self, _t: u64, _sim_time_s: f64, _visits: &[f64], _values: &[f64]) {}
     /// Called once at the end (also when the run was interrupted: `complete` = false).
     fn on_finish(&mut self, _t: u64, _complete: bool) {}
+    /// The first error that lost some of this observer's output (a write that failed,
+    /// say), as one message naming the file. The runner checks it as the run goes and at
+    /// the end: such a seed stops and is never reported complete.
+    fn error(&self) -> Option<String> {
+        None
+    }
 }

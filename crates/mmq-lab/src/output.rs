@@ -4,7 +4,6 @@
 //! and, last, `summary.json`, so that a summary saying "complete" speaks for every output.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use mmq_core::World;
@@ -15,26 +14,10 @@ use crate::error::LabError;
 use crate::runner::SeedResult;
 use crate::summary::Summary;
 
-/// Writes `bytes` to `path` atomically.
+/// Writes `bytes` to `path` atomically ([`mmq_core::files::write_atomic`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
-    let io = |source| LabError::Io { path: path.to_path_buf(), source };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(io)?;
-    }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-    let written = std::fs::File::create(&tmp).and_then(|mut f| {
-        f.write_all(bytes)?;
-        f.sync_all()
-    });
-    match written.and_then(|()| std::fs::rename(&tmp, path)) {
-        Ok(()) => Ok(()),
-        Err(e) => {
-            // A failed write leaves nothing behind: no half-written temporary file.
-            let _ = std::fs::remove_file(&tmp);
-            Err(io(e))
-        }
-    }
+    mmq_core::files::write_atomic(path, bytes)
+        .map_err(|source| LabError::Io { path: path.to_path_buf(), source })
 }
 
 /// What kind of output a folder holds, for [`claim_out_dir`].

@@ -109,6 +109,9 @@ pub struct SeedResult {
     pub wall_time_s: f64,
     /// Wall-clock seconds of the learning run alone (no evaluation, no baseline).
     pub learn_time_s: f64,
+    /// Why some of this seed's output was lost (its recording could not be written, say);
+    /// such a seed is never complete.
+    pub failure: Option<String>,
 }
 
 impl SeedResult {
@@ -208,9 +211,12 @@ pub fn run_seed_on<E: Env>(
     let env_stats = env.stats();
     let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, cfg.eval_steps, seeds, seed)?;
     let (policy_arrows, policy_probs, values) = policy_of(&env, &*learner);
+    let mut failure = None;
     if let Some(o) = observer.as_mut() {
         o.on_finish(run.steps_done, complete);
+        failure = o.error();
     }
+    let complete = complete && failure.is_none();
     let (mut baseline, mut baseline_greedy) = (None, None);
     if cfg.baseline && complete {
         let spec = cfg.baseline_learner();
@@ -239,6 +245,7 @@ pub fn run_seed_on<E: Env>(
         baseline_greedy_per_step: baseline_greedy,
         wall_time_s: clock.elapsed().as_secs_f64(),
         learn_time_s: learn_s,
+        failure,
     })
 }
 
@@ -297,6 +304,11 @@ fn learn<E: Env>(
         if t % CHECK_EVERY == 0 && t > 0 {
             (ctl.progress)(pending_progress);
             pending_progress = 0;
+            // An observer that lost output (a failed write) ends the seed: its results
+            // could never be reported complete.
+            if observer.as_ref().is_some_and(|o| o.error().is_some()) {
+                break;
+            }
         }
         let d = learner.act(s, &mut rng);
         let st = ch.step(d.action).map_err(env_err)?;
@@ -464,8 +476,15 @@ pub fn memory_limit(parallel: usize) -> u128 {
 pub struct RunOutcome {
     /// Results in seed order (only seeds that started).
     pub results: Vec<SeedResult>,
-    /// Whether the run was stopped early.
+    /// Whether the run was stopped early (or a seed lost output).
     pub interrupted: bool,
+}
+
+impl RunOutcome {
+    /// Why seeds lost output, one message per seed that did (see [`SeedResult::failure`]).
+    pub fn failures(&self) -> Vec<&str> {
+        self.results.iter().filter_map(|r| r.failure.as_deref()).collect()
+    }
 }
 
 /// Runs every seed of `cfg` in parallel (rayon), results in seed order.

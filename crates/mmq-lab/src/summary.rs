@@ -45,8 +45,11 @@ pub struct Summary {
 pub struct SeedEntry {
     /// The master seed.
     pub seed: u64,
-    /// Whether every step of this seed ran.
+    /// Whether every step of this seed ran and every output of it was written.
     pub complete: bool,
+    /// Why an output of this seed was lost (a recording that could not be written).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
     /// The metrics (absent keys: not measured, or without meaning for this seed).
     #[serde(flatten)]
     pub metrics: BTreeMap<String, f64>,
@@ -161,7 +164,7 @@ impl Summary {
                 let mut metrics = seed_metrics(r, optimum, ceiling);
                 metrics.remove("seed");
                 metrics.remove("complete");
-                SeedEntry { seed: r.seed, complete: r.complete, metrics }
+                SeedEntry { seed: r.seed, complete: r.complete, error: r.failure.clone(), metrics }
             })
             .collect();
         let done: Vec<&BTreeMap<String, f64>> =

@@ -16,8 +16,8 @@ pub enum LogError {
         #[source]
         source: std::io::Error,
     },
-    /// The MCAP library refused.
-    #[error("{}: cannot {action}: {source}", path.display())]
+    /// The MCAP library refused (for an I/O failure, the operating system's reason).
+    #[error("{}: cannot {action}: {}", path.display(), mcap_cause(source))]
     Mcap {
         /// The file.
         path: PathBuf,
@@ -57,6 +57,15 @@ pub enum LogError {
         /// The cause, with the fix.
         message: String,
     },
+}
+
+/// The reason of an MCAP error: the operating system's own words for an I/O failure
+/// ("File too large (os error 27)"), not the library's generic "I/O error".
+fn mcap_cause(e: &mcap::McapError) -> String {
+    match e {
+        mcap::McapError::Io(io) => io.to_string(),
+        other => other.to_string(),
+    }
 }
 
 impl LogError {

@@ -63,8 +63,13 @@ pub(crate) fn write_figure<F: Figure>(fig: &F, base: &Path) -> Result<Vec<PathBu
         render_svg(fig, size).map_err(|message| PlotError::Render { path: svg_path.clone(), message })?;
     let png =
         render_png(fig, size).map_err(|message| PlotError::Render { path: png_path.clone(), message })?;
-    std::fs::write(&svg_path, svg).map_err(|source| PlotError::Write { path: svg_path.clone(), source })?;
-    std::fs::write(&png_path, png).map_err(|source| PlotError::Write { path: png_path.clone(), source })?;
+    // Each file whole or not at all: a full disk never leaves a cut figure behind.
+    let write = |path: &PathBuf, bytes: &[u8]| {
+        mmq_core::files::write_atomic(path, bytes)
+            .map_err(|source| PlotError::Write { path: path.clone(), source })
+    };
+    write(&svg_path, svg.as_bytes())?;
+    write(&png_path, &png)?;
     Ok(vec![svg_path, png_path])
 }
 

@@ -15,6 +15,10 @@ impl Observer for McapRecorder {
         Some(self.config.trace_period_s())
     }
 
+    fn error(&self) -> Option<String> {
+        self.error.as_ref().map(ToString::to_string)
+    }
+
     fn on_start(&mut self, info: &RunInfo<'_>, initial_state: State, sim_time_s: f64) {
         let world = info.world.clone();
         let grid = info.env_kind == "grid";
