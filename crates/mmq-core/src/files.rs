@@ -45,27 +45,6 @@ pub fn read_text_bounded(path: &Path, limit: u64) -> Result<String, ReadError> {
         .map_err(|e| ReadError::Io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn files_devices_folders_and_sizes() {
-        let d = std::env::temp_dir().join(format!("mmq-files-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        let f = d.join("f.txt");
-        std::fs::write(&f, "12345").unwrap();
-        assert_eq!(read_text_bounded(&f, 5).unwrap(), "12345");
-        assert!(matches!(read_bounded(&f, 4), Err(ReadError::TooLarge { limit: 4 })));
-        assert!(matches!(read_bounded(&d, 100), Err(ReadError::NotAFile)));
-        if Path::new("/dev/zero").exists() {
-            assert!(matches!(read_bounded(Path::new("/dev/zero"), 100), Err(ReadError::NotAFile)));
-        }
-        assert!(matches!(read_bounded(&d.join("missing"), 100), Err(ReadError::Io(_))));
-        std::fs::remove_dir_all(&d).unwrap();
-    }
-}
-
 /// The temporary name `path` is written under before [`write_atomic`] renames it: a hidden
 /// file in the same folder, `.NAME.tmpPID` (the rename stays on one file system).
 pub fn temporary_name(path: &Path) -> PathBuf {
@@ -89,4 +68,43 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     written.and_then(|()| std::fs::rename(&tmp, path)).inspect_err(|_| {
         let _ = std::fs::remove_file(&tmp);
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn files_devices_folders_and_sizes() {
+        let d = std::env::temp_dir().join(format!("mmq-files-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        let f = d.join("f.txt");
+        std::fs::write(&f, "12345").unwrap();
+        assert_eq!(read_text_bounded(&f, 5).unwrap(), "12345");
+        assert!(matches!(read_bounded(&f, 4), Err(ReadError::TooLarge { limit: 4 })));
+        assert!(matches!(read_bounded(&d, 100), Err(ReadError::NotAFile)));
+        if Path::new("/dev/zero").exists() {
+            assert!(matches!(read_bounded(Path::new("/dev/zero"), 100), Err(ReadError::NotAFile)));
+        }
+        assert!(matches!(read_bounded(&d.join("missing"), 100), Err(ReadError::Io(_))));
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+    #[test]
+    fn atomic_writes_replace_whole_files_and_leave_nothing_on_failure() {
+        let d = std::env::temp_dir().join(format!("mmq-atomic-{}", std::process::id()));
+        let f = d.join("sub").join("out.csv");
+        write_atomic(&f, b"old").unwrap();
+        write_atomic(&f, b"new").unwrap();
+        assert_eq!(std::fs::read(&f).unwrap(), b"new");
+        // A folder in the way: the rename fails, the error is returned, no temporary stays.
+        let blocked = d.join("sub").join("a-folder");
+        std::fs::create_dir_all(blocked.join("inside")).unwrap();
+        assert!(write_atomic(&blocked, b"x").is_err());
+        let names: Vec<String> = std::fs::read_dir(d.join("sub"))
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(names.iter().all(|n| !n.contains(".tmp")), "{names:?}");
+        std::fs::remove_dir_all(&d).unwrap();
+    }
 }
