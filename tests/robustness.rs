@@ -127,6 +127,39 @@ mod interrupt {
         mcaps(dir).iter().any(|p| std::fs::metadata(p).is_ok_and(|m| m.len() > 20_000))
     }
 
+    /// Robot settings at the edge of what is accepted (tiny physics step, slow drive:
+    /// about 24 000 physics steps per primitive): SIGINT still stops the run at once,
+    /// because the stop flag is read every step and a stopped run is not evaluated.
+    #[test]
+    fn a_slow_robot_stops_within_the_bound() {
+        let _g = heavy();
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().join("slow");
+        let dir = out.to_string_lossy().into_owned();
+        let mut child = spawn(&[
+            "run",
+            "--env",
+            "robot",
+            "--robot",
+            "dt_s=0.00145",
+            "--robot",
+            "max_speed_mps=0.05",
+            "--steps",
+            "100000000",
+            "--no-baseline",
+            "-q",
+            "--out",
+            &dir,
+        ]);
+        wait_for(&mut child, Duration::from_secs(60), || out.join("config.toml").exists());
+        std::thread::sleep(Duration::from_millis(1500));
+        let (o, took) = signal_and_wait(child, "INT");
+        let (_, stderr) = text(&o);
+        assert_eq!(o.status.code(), Some(130), "{stderr}");
+        assert!(took < EXIT_WITHIN, "exited {took:?} after SIGINT (bound {EXIT_WITHIN:?})");
+        assert_eq!(read_json(&out.join("summary.json"))["complete"], false);
+    }
+
     /// `mmq run --record` with many steps, stopped by `signal` mid-run: exit 130 within
     /// seconds, a summary marked incomplete, config.toml, and every MCAP log finished
     /// explicitly (readable to its end, `end` record saying the run was not complete).

@@ -209,7 +209,10 @@ pub fn run_seed_on<E: Env>(
     let mut env = env;
     // Physics figures of the learning run (before evaluation resets the environment).
     let env_stats = env.stats();
-    let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, cfg.eval_steps, seeds, seed)?;
+    // A stopped run is not evaluated: the evaluation's steps would delay the stop (a
+    // robot's thousand primitives take seconds), and a partial policy's score means little.
+    let eval_steps = if complete { cfg.eval_steps } else { 0 };
+    let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, eval_steps, seeds, seed)?;
     let (policy_arrows, policy_probs, values) = policy_of(&env, &*learner);
     let mut failure = None;
     if let Some(o) = observer.as_mut() {

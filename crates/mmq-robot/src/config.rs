@@ -531,6 +531,17 @@ impl RobotConfig {
         self.validate()?;
         let need = 2.0 * self.radius_m + 2.0 * CLEARANCE_M;
         if need > world.cell_size {
+            let max_radius = world.cell_size / 2.0 - CLEARANCE_M;
+            // Cells too small for any robot: only a larger cell helps.
+            let fix = if max_radius < 0.001 {
+                format!("a `cell_size` of at least {} m in the world file", round_up(need, 6))
+            } else {
+                format!(
+                    "a radius at most {} m, or a `cell_size` of at least {} m in the world file",
+                    (max_radius * 1e6).floor() / 1e6,
+                    round_up(need, 6)
+                )
+            };
             return Err(invalid(
                 "radius_m",
                 self.radius_m,
@@ -539,13 +550,32 @@ impl RobotConfig {
                     2.0 * self.radius_m,
                     world.cell_size
                 ),
+                &fix,
+            ));
+        }
+        let steps = self.max_physics_steps(world.cell_size);
+        if steps > MAX_PHYSICS_STEPS {
+            let timeout = self.timeout_s(world.cell_size);
+            return Err(invalid(
+                "dt_s",
+                self.dt_s,
+                format!(
+                    "one primitive may last up to {timeout:.3} s (its time-out), that is {steps:.0} physics steps of {} s, more than the {MAX_PHYSICS_STEPS:.0} a primitive may take: a run would crawl and answer a stop late",
+                    self.dt_s
+                ),
                 &format!(
-                    "a radius at most {} m, or a larger `cell_size` in the world file",
-                    ((world.cell_size / 2.0 - CLEARANCE_M).max(0.0) * 1e6).round() / 1e6
+                    "a `dt_s` of at least {} s, higher speed or acceleration limits, or a lower `timeout_factor`",
+                    round_up(timeout / MAX_PHYSICS_STEPS, 6)
                 ),
             ));
         }
         Ok(())
+    }
+
+    /// The most physics steps one primitive can take on cells of `cell_size` metres: its
+    /// time-out over the physics step.
+    pub fn max_physics_steps(&self, cell_size: f64) -> f64 {
+        self.timeout_s(cell_size) / self.dt_s
     }
 
     /// The [`RobotTable`] that resolves to this configuration (every field written).
@@ -590,6 +620,18 @@ impl RobotConfig {
 /// Clearance required between the robot at a cell's centre and the cell's sides, metres.
 pub const CLEARANCE_M: f64 = 0.02;
 
+/// The most physics steps a primitive may need (its time-out over `dt_s`). The shipped
+/// presets need 400–900; this bound is about 30× that, and keeps the worst primitive
+/// (a time-out against a wall) well under a second of wall time, so a stop is answered
+/// within a second whatever the settings.
+pub const MAX_PHYSICS_STEPS: f64 = 25_000.0;
+
+/// `x` rounded up to `digits` decimals (a bound suggested in a message stays a bound).
+fn round_up(x: f64, digits: i32) -> f64 {
+    let k = 10f64.powi(digits);
+    (x * k).ceil() / k
+}
+
 /// Time to cover `d` starting and ending at rest with speed limit `v` and acceleration
 /// limit `a`.
 fn profile_time(d: f64, v: f64, a: f64) -> f64 {
@@ -626,5 +668,31 @@ mod tests {
         let t = c.nominal_primitive_s(0.5);
         // A half turn (1.99 s) and a 0.5 m drive (2.36 s).
         assert!((t - 4.35).abs() < 0.01, "{t}");
+    }
+    #[test]
+    fn settings_that_would_crawl_are_refused_with_a_fix() {
+        let world =
+            mmq_core::World::parse("name = \"w\"\ncell_size = 0.5\nmap = \"\"\"\nS.\n.G\n\"\"\"\n", "w.toml")
+                .unwrap();
+        for p in Preset::ALL {
+            let steps = p.config().max_physics_steps(world.cell_size);
+            assert!((400.0..=1000.0).contains(&steps), "{p:?}: {steps}");
+        }
+        // Burger: 4.354 s nominal × 3 = 13.063 s; at dt 1e-4 s that is 130 633 steps, and the
+        // smallest dt accepted is 13.063 / 25 000 = 0.00052253 s, rounded up.
+        let slow = RobotConfig { dt_s: 1e-4, ..RobotConfig::default() };
+        let e = slow.validate_for_world(&world).unwrap_err().to_string();
+        assert!(e.contains("`dt_s`") && e.contains("130") && e.contains("at least 0.000523 s"), "{e}");
+        let crawl = RobotConfig { max_speed_mps: 1e-3, ..RobotConfig::default() };
+        assert!(crawl.validate_for_world(&world).is_err());
+        // Cells too small for any robot: the fix is a larger cell, never "a radius of 0 m".
+        let tiny = mmq_core::World::parse(
+            "name = \"w\"\ncell_size = 1e-9\nmap = \"\"\"\nS.\n.G\n\"\"\"\n",
+            "w.toml",
+        );
+        if let Ok(tiny) = tiny {
+            let e = RobotConfig::default().validate_for_world(&tiny).unwrap_err().to_string();
+            assert!(e.contains("a `cell_size` of at least 0.25 m") && !e.contains("radius at most"), "{e}");
+        }
     }
 }
