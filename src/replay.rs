@@ -17,6 +17,14 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
         return Ok(());
     }
     let log = mmq_log::read_log(&a.file).map_err(crate::input_error)?;
+    if !log.metadata.contains_key("run") && !log.topics.contains_key(mmq_log::messages::topics::DECISION) {
+        return Err(crate::input_error(format!(
+            "{}: an MCAP file, but not a recording of this program (no `run` metadata, no {} topic); \
+             `mmq replay` reads the files of `mmq run --record`",
+            a.file.display(),
+            mmq_log::messages::topics::DECISION
+        )));
+    }
     if let Some(stop) = &log.stop {
         eprintln!(
             "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",

@@ -89,6 +89,41 @@ mod bad_input {
         assert_eq!(o.status.code(), Some(3), "{err}");
         assert!(err.contains("--from 50 --to 10") && !svg.exists(), "{err}");
     }
+
+    /// An MCAP file of another tool (here the smallest valid one: a header, the data end
+    /// and a footer) is not summarised as "run: ? on ?" but refused as bad input; a FIFO
+    /// is refused at once instead of blocking.
+    #[test]
+    fn a_foreign_mcap_file_and_a_fifo_are_refused() {
+        fn record(op: u8, body: &[u8]) -> Vec<u8> {
+            [&[op][..], &(body.len() as u64).to_le_bytes(), body].concat()
+        }
+        let magic = b"\x89MCAP0\r\n";
+        let header = [&0u32.to_le_bytes()[..], &5u32.to_le_bytes(), b"other"].concat();
+        let file = [
+            &magic[..],
+            &record(0x01, &header),
+            &record(0x0F, &0u32.to_le_bytes()),
+            &record(0x02, &[0u8; 20]),
+            &magic[..],
+        ]
+        .concat();
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("other.mcap");
+        std::fs::write(&path, file).unwrap();
+        let o = mmq(&["replay", &path.to_string_lossy()]);
+        let (out, err) = text(&o);
+        assert_eq!(o.status.code(), Some(3), "{out}{err}");
+        assert!(err.contains("other.mcap") && err.contains("not a recording of this program"), "{err}");
+        let fifo = d.path().join("pipe.mcap");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if made.is_ok_and(|s| s.success()) {
+            let o = mmq(&["replay", &fifo.to_string_lossy()]);
+            let (_, err) = text(&o);
+            assert_eq!(o.status.code(), Some(3), "{err}");
+            assert!(err.contains("pipe.mcap") && err.contains("not a regular file"), "{err}");
+        }
+    }
 }
 
 mod run {

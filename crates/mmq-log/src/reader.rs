@@ -132,10 +132,14 @@ pub struct LogContents {
     pub last_value: Option<Stamped<m::Grid>>,
     /// Messages read, all topics.
     pub messages: u64,
-    /// The file was read to its end magic without a problem.
+    /// The file was read to its end magic, and what was read agrees with the file's own
+    /// statistics (no [`LogContents::problems`]).
     pub complete: bool,
     /// Where reading stopped early, if it did.
     pub stop: Option<ReadStop>,
+    /// What is wrong with a file that reads to its end: message counts that disagree with
+    /// its statistics record (a chunk removed or duplicated), payloads that do not decode.
+    pub problems: Vec<String>,
 }
 
 impl LogContents {
@@ -177,6 +181,15 @@ struct SchemaRec {
 pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
     let path = path.as_ref();
     let io_err = |action, source| LogError::Io { path: path.to_path_buf(), action, source };
+    // A FIFO would block the open forever, a device never end: only regular files.
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        return Err(io_err(
+            "read the log",
+            std::io::Error::other(
+                "not a regular file (a FIFO, device or folder); give the path of an MCAP file",
+            ),
+        ));
+    }
     let file = File::open(path).map_err(|e| io_err("open the log", e))?;
     let file_len = file.metadata().map_err(|e| io_err("read the log", e))?.len();
     let mut input = BufReader::with_capacity(1 << 16, file);
@@ -248,7 +261,10 @@ pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
         }
     };
     match stop_reason {
-        None => out.complete = true,
+        None => {
+            out.problems = st.problems(&out);
+            out.complete = out.problems.is_empty();
+        }
         Some(reason) => {
             // A file too short to hold the start magic stops at its first byte.
             let offset = if file_len < mcap::MAGIC.len() as u64 { 0 } else { offset };
@@ -263,6 +279,10 @@ pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
 struct State {
     schemas: HashMap<u16, SchemaRec>,
     channels: HashMap<u16, String>,
+    /// Message records read per channel id (known channel or not).
+    counts: BTreeMap<u16, u64>,
+    /// The file's statistics record (summary section), if it has one.
+    stats: Option<mcap::records::Statistics>,
 }
 
 /// A record from inside a chunk, owned until the whole chunk has been checked.
@@ -309,9 +329,40 @@ impl State {
                 data: bytes.into_owned(),
             }),
             Record::DataEnd(_) => *data = false,
+            Record::Statistics(s) => self.stats = Some(s),
             _ => {}
         }
         Ok(())
+    }
+
+    /// What disagrees in a file read to its end (see [`LogContents::problems`]).
+    fn problems(&self, out: &LogContents) -> Vec<String> {
+        let mut found = Vec::new();
+        if let Some(stats) = &self.stats {
+            let read: u64 = self.counts.values().sum();
+            if read != stats.message_count {
+                found.push(format!(
+                    "the file's statistics count {} messages, {read} were read: a chunk is missing or repeated",
+                    stats.message_count
+                ));
+            }
+            let ids: std::collections::BTreeSet<u16> =
+                stats.channel_message_counts.keys().chain(self.counts.keys()).copied().collect();
+            for id in ids {
+                let want = stats.channel_message_counts.get(&id).copied().unwrap_or(0);
+                let got = self.counts.get(&id).copied().unwrap_or(0);
+                if want != got {
+                    let topic = self.channels.get(&id).map_or_else(|| format!("channel {id}"), Clone::clone);
+                    found.push(format!("{topic}: {got} messages read, the statistics count {want}"));
+                }
+            }
+        }
+        for (topic, t) in &out.topics {
+            if t.undecodable > 0 {
+                found.push(format!("{topic}: {} of {} messages do not decode", t.undecodable, t.count));
+            }
+        }
+        found
     }
 
     fn channel(&mut self, c: mcap::records::Channel, out: &mut LogContents) {
@@ -331,6 +382,7 @@ impl State {
     }
 
     fn message(&mut self, h: mcap::records::MessageHeader, data: &[u8], out: &mut LogContents) {
+        *self.counts.entry(h.channel_id).or_insert(0) += 1;
         let Some(topic) = self.channels.get(&h.channel_id) else { return };
         let Some(info) = out.topics.get_mut(topic) else { return };
         if info.count == 0 {

@@ -17,6 +17,8 @@ pub struct LogSummary {
     pub complete: bool,
     /// Where reading stopped early, if it did.
     pub stop: Option<ReadStop>,
+    /// What disagrees in a file read to its end (see [`LogContents::problems`]).
+    pub problems: Vec<String>,
     /// Facts of the `run` metadata record.
     pub run: BTreeMap<String, String>,
     /// Simulated time covered by the messages, seconds.
@@ -67,6 +69,7 @@ pub fn summary(log: &LogContents) -> LogSummary {
         file_len: log.file_len,
         complete: log.complete,
         stop: log.stop.clone(),
+        problems: log.problems.clone(),
         run: log.metadata.get("run").cloned().unwrap_or_default(),
         duration_s,
         steps,
@@ -88,7 +91,8 @@ impl fmt::Display for LogSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "{} ({} bytes)", self.path.display(), self.file_len)?;
         match &self.stop {
-            None => writeln!(f, "  file:       complete")?,
+            None if self.problems.is_empty() => writeln!(f, "  file:       complete")?,
+            None => writeln!(f, "  file:       DAMAGED: {}", self.problems.join("; "))?,
             Some(s) => writeln!(f, "  file:       INCOMPLETE: {s}")?,
         }
         let fact = |k: &str| self.run.get(k).map_or("?", String::as_str);
