@@ -88,6 +88,11 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
             ),
         });
     }
+    if !outcome.interrupted {
+        // A stop that came while the finished run's outputs were written changed nothing:
+        // the summary says complete, so the exit code says success, not 130.
+        stop.store(false, std::sync::atomic::Ordering::SeqCst);
+    }
     if outcome.interrupted {
         eprintln!(
             "interrupted: wrote the {} finished seed(s) to {}, marked partial",

@@ -212,7 +212,8 @@ impl DelayDist {
             return Err(DelayError {
                 spec: spec.to_string(),
                 reason: format!(
-                    "the mean delay {m} {} is above the supported {MAX_MEAN_DELAY} {}",
+                    "the mean delay {} {} is above the supported {MAX_MEAN_DELAY} {}",
+                    crate::stats::compact(m),
                     d.unit().name(),
                     d.unit().name()
                 ),
