@@ -207,8 +207,9 @@ impl LearnerSpec {
     /// Checks every parameter's domain.
     pub fn validate(&self) -> Result<(), LearnError> {
         let p = &self.params;
-        let bad =
-            |field, v: f64, accepted| Err(LearnError::InvalidParam { field, value: mmq_core::stats::compact(v), accepted });
+        let bad = |field, v: f64, accepted| {
+            Err(LearnError::InvalidParam { field, value: mmq_core::stats::compact(v), accepted })
+        };
         if !(0.0..=1.0).contains(&p.alpha) {
             return bad("--alpha", p.alpha, "use a learning rate in [0, 1], e.g. 0.1");
         }
