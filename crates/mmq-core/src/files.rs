@@ -55,11 +55,8 @@ pub fn temporary_name(path: &Path) -> PathBuf {
 /// Writes `bytes` to `path` atomically: to a temporary file in the same folder, synced,
 /// then renamed over `path`. A kill at any instant leaves the old file or the new one; a
 /// failed write (a full disk, a file-size limit) leaves no temporary file and returns the
-/// error. Creates the parent folder if needed.
+/// error. The folder must exist.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)?;
-    }
     let tmp = temporary_name(path);
     let written = std::fs::File::create(&tmp).and_then(|mut f| {
         f.write_all(bytes)?;
@@ -93,6 +90,8 @@ mod tests {
     fn atomic_writes_replace_whole_files_and_leave_nothing_on_failure() {
         let d = std::env::temp_dir().join(format!("mmq-atomic-{}", std::process::id()));
         let f = d.join("sub").join("out.csv");
+        assert!(write_atomic(&f, b"x").is_err(), "no folder: an error, as for a plain write");
+        std::fs::create_dir_all(d.join("sub")).unwrap();
         write_atomic(&f, b"old").unwrap();
         write_atomic(&f, b"new").unwrap();
         assert_eq!(std::fs::read(&f).unwrap(), b"new");

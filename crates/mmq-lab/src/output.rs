@@ -14,10 +14,14 @@ use crate::error::LabError;
 use crate::runner::SeedResult;
 use crate::summary::Summary;
 
-/// Writes `bytes` to `path` atomically ([`mmq_core::files::write_atomic`]).
+/// Writes `bytes` to `path` atomically ([`mmq_core::files::write_atomic`]), creating its
+/// folder if needed.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
-    mmq_core::files::write_atomic(path, bytes)
-        .map_err(|source| LabError::Io { path: path.to_path_buf(), source })
+    let io = |source| LabError::Io { path: path.to_path_buf(), source };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    mmq_core::files::write_atomic(path, bytes).map_err(io)
 }
 
 /// What kind of output a folder holds, for [`claim_out_dir`].
