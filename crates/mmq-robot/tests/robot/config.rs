@@ -104,7 +104,7 @@ fn a_robot_wider_than_a_cell_is_rejected() {
         e,
         "robot config: field `radius_m` = 0.22 is not accepted: the robot is too wide for the world's cells: \
          diameter 0.44 m plus 2 × 0.02 m clearance exceeds `cell_size` = 0.4 m; \
-         use a radius at most 0.18 m, or a larger `cell_size` in the world file"
+         use a radius at most 0.18 m, or a `cell_size` of at least 0.48 m in the world file"
     );
     // The same check guards RobotEnv::new with an explicit configuration.
     let w = World::parse("cell_size = 0.2\nmap = \"G.S\"", "w.toml").unwrap();
