@@ -116,6 +116,27 @@ fn baseline_config(cfg: &RunConfig) -> RunConfig {
     RunConfig { learner: cfg.baseline_learner(), delay: "none".into(), baseline: false, ..cfg.clone() }
 }
 
+/// The learning curve in `points` equal parts of `steps` (none for 0): reward earned
+/// per step in each part, as `curve/<last step of the part>`. The spec checks that the
+/// parts end on rows of the curve; a part without its row (an interrupted run) is left
+/// out.
+pub(super) fn curve_points(run: &Trajectory, steps: u64, points: u64) -> Vec<(String, f64)> {
+    let cum_at = |t: u64| -> Option<f64> {
+        if t == 0 {
+            return Some(0.0);
+        }
+        run.curve.iter().find(|row| row.step == t).map(|row| row.earned_cum)
+    };
+    let mut out = Vec::new();
+    for k in 1..=points {
+        let (t0, t1) = ((k - 1) * steps / points, k * steps / points);
+        if let (Some(a), Some(b)) = (cum_at(t0), cum_at(t1)) {
+            out.push((format!("curve/{t1}"), (b - a) / (t1 - t0) as f64));
+        }
+    }
+    out
+}
+
 /// Runs the jobs of `shard` (all without) that `out` does not hold yet, writing each
 /// result as it finishes, then `results.csv` and `sweep.json`. Stops early (leaving
 /// every finished result) when `ctl.stop` is set.
@@ -251,7 +272,8 @@ pub fn run_sweep(
             r.baseline = Some(b.0.clone());
             r.baseline_greedy_per_step = Some(b.1);
         }
-        let metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
+        let mut metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
+        metrics.extend(curve_points(&r.run, cfg.steps, spec.curve));
         if let Err(e) = write_job(out, plan, j, &metrics) {
             return fail(e);
         }
@@ -312,5 +334,23 @@ mod tests {
         let b = seed_metrics(&part, opt, None);
         assert!(a.contains_key("perf/relative"));
         assert!(same_results(&a, &b), "{a:?}\n{b:?}");
+    }
+
+    /// Curve points by hand: earned reward per step in equal parts of the run.
+    #[test]
+    fn curve_points_by_hand() {
+        use crate::runner::CurveRow;
+        let row =
+            |step, earned_cum| CurveRow { step, earned: 0.0, received: 0.0, earned_cum, received_cum: 0.0 };
+        let run = Trajectory {
+            curve: vec![row(100, 10.0), row(200, 30.0), row(300, 30.0), row(400, 70.0)],
+            ..Trajectory::default()
+        };
+        let p = curve_points(&run, 400, 2);
+        assert_eq!(p, [("curve/200".to_string(), 0.15), ("curve/400".to_string(), 0.2)]);
+        // An interrupted run (no row at 400) has only its first point.
+        let short = Trajectory { curve: run.curve[..3].to_vec(), ..Trajectory::default() };
+        assert_eq!(curve_points(&short, 400, 2).len(), 1);
+        assert!(curve_points(&run, 400, 0).is_empty());
     }
 }

@@ -28,8 +28,11 @@ pub struct SweepSpec {
     pub(super) configs: Vec<RunConfig>,
     /// Per cell: index into `worlds`.
     pub(super) world_of: Vec<usize>,
-    /// Distinct worlds.
+    /// Distinct worlds, each with its robot setting applied (world-major: world `w`
+    /// with robot setting `r` is `w × settings + r`).
     pub(super) worlds: Vec<World>,
+    /// Points of the learning curve stored per job (0: none; spec `curve`).
+    pub(super) curve: u64,
 }
 
 impl SweepSpec {
@@ -101,6 +104,29 @@ impl SweepSpec {
             text_of(&baseline, bool::to_string),
         ];
         debug_assert!(texts.iter().map(|t| t.0.as_str()).eq(FIELDS));
+        // `robot` and `curve`: fields after the others, only when given, so that the
+        // cell ids of specs without them stay as they were.
+        let robot: Option<Values<Vec<String>>> = raw.robot.map(|r| {
+            let offset = r.span().start;
+            let (listed, values) = match r.into_inner() {
+                OneOrMany::One(x) => (false, vec![x.0]),
+                m @ OneOrMany::Many(_) => (true, m.into_vec().into_iter().map(|x| x.0).collect()),
+            };
+            Values { name: "robot", values, listed, offset }
+        });
+        if let Some(r) = &robot {
+            texts.push(text_of(r, |o| o.join(" ")));
+        }
+        let curve = match raw.curve {
+            Some(c) => {
+                let offset = c.span().start;
+                let n = c.into_inner();
+                texts.push(("curve".into(), vec![n.to_string()], false, offset));
+                Some((n, offset))
+            }
+            None => None,
+        };
+        let beyond_at = texts.len();
         // `[beyond]`: fields `beyond.KEY` after the others, in key order.
         let beyond: Vec<(String, Values<toml::Value>)> = raw
             .beyond
@@ -264,9 +290,58 @@ impl SweepSpec {
             let loaded =
                 World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
             let bytes = loaded.source.clone().into_bytes();
-            worlds.push(loaded);
+            match &robot {
+                None => worlds.push(loaded),
+                Some(r) => {
+                    for (k, overrides) in r.values.iter().enumerate() {
+                        worlds
+                            .push(with_robot(&loaded, overrides).map_err(|m| {
+                                src.error(r.offset, &r.item(k), format!("{m} (world `{w}`)"))
+                            })?);
+                    }
+                }
+            }
             world_paths.push(path);
             world_digests.push(format!("{:016x}", fnv1a(&bytes)));
+        }
+        let settings = robot.as_ref().map_or(1, |r| r.values.len());
+        let robot_at = robot.as_ref().map(|_| FIELDS.len());
+        if let Some(r) = &robot {
+            if !envs.contains(&EnvKind::Robot) {
+                return Err(src.error(
+                    r.offset,
+                    "robot",
+                    "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
+                ));
+            }
+            for (k, o) in r.values.iter().enumerate() {
+                if o.is_empty() {
+                    return Err(src.error(
+                        r.offset,
+                        &r.item(k),
+                        "no overrides; give KEY=VALUE overrides of the [robot] table, e.g. \"profile=ideal\"",
+                    ));
+                }
+            }
+        }
+        if let Some((n, offset)) = curve {
+            if n == 0 || n > 1000 {
+                return Err(src.error(
+                    offset,
+                    "curve",
+                    format!("{n} is not accepted; use a number of points in 1..=1000, e.g. 15"),
+                ));
+            }
+            for &st in &steps.values {
+                for &w in &window.values {
+                    if st % n != 0 || (st / n) % w != 0 {
+                        return Err(src.error(offset, "curve", format!(
+                            "{st} steps in {n} points of {} steps each do not fall on windows of {w} steps; choose `curve` so that steps / curve is a multiple of `window`",
+                            st as f64 / n as f64
+                        )));
+                    }
+                }
+            }
         }
 
         // The product, first field outermost.
@@ -328,12 +403,13 @@ impl SweepSpec {
                 baseline: baseline.values[idx[13]],
                 save_tables: false,
                 ledger: false,
+                robot: robot.as_ref().zip(robot_at).map_or_else(Vec::new, |(r, k)| r.values[idx[k]].clone()),
                 ..RunConfig::default()
             };
             if !beyond.is_empty() {
                 let pairs: Vec<(&str, &toml::Value)> = beyond
                     .iter()
-                    .zip(&idx[FIELDS.len()..])
+                    .zip(&idx[beyond_at..])
                     .map(|((k, v), &i)| (k.as_str(), &v.values[i]))
                     .collect();
                 cfg.learner = with_beyond(&cfg.learner, &pairs)
@@ -345,7 +421,7 @@ impl SweepSpec {
             }
             cells.push(PlanCell { id, params });
             configs.push(cfg);
-            world_of.push(idx[0]);
+            world_of.push(idx[0] * settings + robot_at.map_or(0, |k| idx[k]));
             // Odometer: the last field varies fastest.
             for k in (0..idx.len()).rev() {
                 idx[k] += 1;
@@ -366,7 +442,15 @@ impl SweepSpec {
             seeds,
             cells,
         };
-        Ok(SweepSpec { file: file.to_path_buf(), text: text.to_string(), plan, configs, world_of, worlds })
+        Ok(SweepSpec {
+            file: file.to_path_buf(),
+            text: text.to_string(),
+            plan,
+            configs,
+            world_of,
+            worlds,
+            curve: curve.map_or(0, |c| c.0),
+        })
     }
 
     /// The run configuration of cell `c` (one seed, no tables).
@@ -393,6 +477,16 @@ fn value_text(v: &toml::Value) -> String {
         toml::Value::Boolean(b) => b.to_string(),
         other => other.to_string(),
     }
+}
+
+/// `world` with the robot overrides applied to its `[robot]` table, checked as the
+/// robot will read it (the grid ignores the table).
+fn with_robot(world: &World, overrides: &[String]) -> Result<World, String> {
+    let table = mmq_robot::apply_overrides(world.robot.as_ref(), overrides).map_err(|e| e.to_string())?;
+    let mut w = world.clone();
+    w.robot = Some(table);
+    mmq_robot::RobotConfig::from_world(&w).map_err(|e| e.to_string())?;
+    Ok(w)
 }
 
 /// `base` with `beyond.KEY = value` for every pair, through the learner's serde form,
@@ -485,5 +579,70 @@ mod tests {
             let e = SweepSpec::load(Path::new("/dev/zero")).unwrap_err().to_string();
             assert!(e.contains("/dev/zero") && e.contains("not a regular file"), "{e}");
         }
+    }
+
+    /// `robot` is an axis of settings, each `KEY=VALUE` overrides (one string or a
+    /// list); it is applied to the cell's world and run configuration, and bad input
+    /// names the item and the fix.
+    #[test]
+    fn robot_settings_are_an_axis() {
+        let base = "world = \"../paper-3x3.toml\"\nenv = [\"grid\", \"robot\"]\nsteps = 100\n";
+        let s = spec(&format!(
+            "{base}robot = [\"profile=ideal\", [\"profile=realistic\", \"preset=kobuki\"]]\ndelay = \"exponential:4s\"\n"
+        ))
+        .unwrap();
+        let p = &s.plan;
+        assert_eq!(p.axes, ["env", "robot"]);
+        assert_eq!(p.cells.len(), 4);
+        assert_eq!(p.param(3, "robot"), "profile=realistic preset=kobuki");
+        assert_eq!(p.param(3, "env"), "robot");
+        assert_eq!(s.config(3).robot, ["profile=realistic", "preset=kobuki"]);
+        assert_eq!(s.config(3).env, EnvKind::Robot);
+        let cfg = mmq_robot::RobotConfig::from_world(s.world(3)).unwrap();
+        assert_eq!((cfg.profile, cfg.preset), (mmq_robot::Profile::Realistic, mmq_robot::Preset::Kobuki));
+        let cfg = mmq_robot::RobotConfig::from_world(s.world(2)).unwrap();
+        assert_eq!(cfg.profile, mmq_robot::Profile::Ideal);
+        // Different settings are different worlds (and baselines); the delay in seconds
+        // is accepted as in `mmq run`.
+        assert_ne!(s.world_of[2], s.world_of[3]);
+        assert_eq!(s.config(0).validate().unwrap().unit(), mmq_core::DelayUnit::Seconds);
+        // One string with several overrides is one setting.
+        let t = spec(&format!("{base}robot = \"profile=realistic preset=kobuki\"\n")).unwrap();
+        assert_eq!(t.plan.axes, ["env"]);
+        assert_eq!(t.config(1).robot, ["profile=realistic", "preset=kobuki"]);
+        // Without `robot` the plan has no such field (cell ids of older specs stay).
+        let u = spec(base).unwrap();
+        assert!(!u.plan.fields.iter().any(|f| f == "robot"));
+
+        let e = spec(&format!("{base}robot = [\"profile=ideal\", \"speed=2\"]\n")).unwrap_err().to_string();
+        assert!(e.contains("t.toml:4:9: robot[1]:") && e.contains("speed"), "{e}");
+        let e = spec(&format!("{base}robot = [\"profile=ideal\", \"profile\"]\n")).unwrap_err().to_string();
+        assert!(e.contains("robot[1]:") && e.contains("KEY=VALUE"), "{e}");
+        let e = spec(&format!("{base}robot = [\"profile=ideal\", \"\"]\n")).unwrap_err().to_string();
+        assert!(e.contains("robot[1]: no overrides"), "{e}");
+        let e =
+            spec(&format!("{base}robot = [\"profile=ideal\", \"profile=ideal\"]\n")).unwrap_err().to_string();
+        assert!(e.contains("robot: `profile=ideal` is listed twice"), "{e}");
+        let e =
+            spec("world = \"../paper-3x3.toml\"\nrobot = \"profile=realistic\"\n").unwrap_err().to_string();
+        assert!(e.contains("robot: no cell runs the robot; add \"robot\" to `env`"), "{e}");
+        let e = spec(&format!("{base}robot = 3\n")).unwrap_err().to_string();
+        assert!(e.contains("robot:") && e.contains("KEY=VALUE overrides"), "{e}");
+        let e = spec(&format!("{base}delay = \"exponential:4\"\n")).unwrap_err().to_string();
+        assert!(e.contains("delay:") && e.contains("exponential:4s"), "{e}");
+    }
+
+    /// `curve = N` stores N points of the learning curve per job; they must fall on
+    /// the windows of the curve.
+    #[test]
+    fn curve_points_fall_on_windows() {
+        let base = "world = \"../paper-3x3.toml\"\nsteps = 1000\n";
+        let s = spec(&format!("{base}window = 100\ncurve = 5\n")).unwrap();
+        assert_eq!(s.curve, 5);
+        assert_eq!(s.plan.fixed().last().map(|f| f.0.as_str()), Some("curve"));
+        let e = spec(&format!("{base}window = 300\ncurve = 5\n")).unwrap_err().to_string();
+        assert!(e.contains("curve:") && e.contains("multiple of `window`"), "{e}");
+        let e = spec(&format!("{base}curve = 0\n")).unwrap_err().to_string();
+        assert!(e.contains("curve: 0 is not accepted"), "{e}");
     }
 }

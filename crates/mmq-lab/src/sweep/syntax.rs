@@ -97,6 +97,34 @@ impl<'de> Deserialize<'de> for SeedsField {
     }
 }
 
+/// One robot setting: `KEY=VALUE` overrides of the world's `[robot]` table as `--robot`
+/// takes them, in one string (separated by spaces) or as a list of strings.
+#[derive(Debug)]
+pub(super) struct RobotSetting(pub(super) Vec<String>);
+
+impl<'de> Deserialize<'de> for RobotSetting {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = RobotSetting;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("KEY=VALUE overrides in a string (e.g. \"profile=realistic preset=kobuki\") or a list of them")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> Result<RobotSetting, E> {
+                Ok(RobotSetting(v.split_whitespace().map(str::to_string).collect()))
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<RobotSetting, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<String>()? {
+                    v.push(x.trim().to_string());
+                }
+                Ok(RobotSetting(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
 pub(super) type Field<T> = Option<Spanned<OneOrMany<T>>>;
 
 /// The spec as written (see docs/sweeps.md for every field).
@@ -121,6 +149,10 @@ pub(super) struct RawSpec {
     pub(super) baseline: Field<bool>,
     pub(super) seeds: Option<Spanned<SeedsField>>,
     pub(super) seed: Option<Spanned<u64>>,
+    /// Robot settings (an axis like the others; see docs/sweeps.md).
+    pub(super) robot: Field<RobotSetting>,
+    /// Points of the learning curve stored per job (absent: none).
+    pub(super) curve: Option<Spanned<u64>>,
     /// Learner parameters beyond the paper (`[beyond]` table: trace decay, ...), each
     /// a value or a list, passed to the learner's `beyond` settings by name.
     pub(super) beyond: Option<BTreeMap<String, Spanned<OneOrMany<toml::Value>>>>,
