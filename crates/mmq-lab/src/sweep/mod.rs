@@ -34,7 +34,10 @@ use std::collections::BTreeMap;
 pub use merge::{MergeOutcome, merge};
 pub use plan::{Plan, PlanCell, Shard};
 pub(crate) use report::csv_field;
-pub use report::{CellStats, HEADLINE, axis_number, cell_stats, results_csv, summary_csv, summary_markdown};
+pub use report::{
+    CellStats, HEADLINE, ROBOT_COLUMNS, axis_number, cell_stats, combine, combined_markdown, learner_labels,
+    learner_markdown, results_csv, robot_markdown, settings, summary_csv, summary_markdown,
+};
 pub use run::{EventSink, SweepEvent, SweepOutcome, run_sweep};
 pub use spec::SweepSpec;
 pub use store::{Manifest, load_results, read_manifest};
