@@ -274,11 +274,16 @@ pub struct SweepArgs {
 #[derive(Debug, Subcommand)]
 pub enum SweepAction {
     /// Means and 95 % intervals per cell: summary.csv, report.md and a figure per numeric
-    /// swept axis, in DIR/report (or --out).
+    /// swept axis, in DIR/report (or --out); with a learner axis, a table per learner and
+    /// setting with the change from the first setting; learning curves (spec `curve`) and
+    /// robot diagnostics, per cell heat maps included, when the sweep has them. Several
+    /// directories (e.g. a grid sweep with 20 seeds and a robot sweep with 5) are
+    /// reported together.
     Report {
-        /// A sweep output directory.
-        dir: PathBuf,
-        /// Where to write the report (default: DIR/report).
+        /// Sweep output directories (the first setting is the first directory's).
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Where to write the report (default: DIR/report of the first DIR).
         #[arg(long, short)]
         out: Option<PathBuf>,
     },

@@ -306,6 +306,70 @@ mod report {
         let mean: f64 = rel[0].split(',').nth(6).unwrap().parse().unwrap();
         assert!((mean - first_cell.iter().sum::<f64>() / 3.0).abs() < 1e-12);
     }
+
+    /// A grid sweep and a robot sweep (other seeds, robot settings, per-cell
+    /// diagnostics, learning curves) reported together: tables per learner and
+    /// setting with the change from the grid, curves, robot diagnostics, heat maps.
+    #[test]
+    fn grid_and_robot_sweeps_in_one_report() {
+        let d = tempfile::tempdir().unwrap();
+        let common = "learner = [\"q\", \"mmq\"]\ndelay = \"poisson:2\"\nmax_delay = 4\nsteps = 400\nwindow = 100\ncurve = 2\neval_steps = 20\n";
+        let (g, r) = (d.path().join("g"), d.path().join("r"));
+        std::fs::create_dir_all(&g).unwrap();
+        std::fs::create_dir_all(&r).unwrap();
+        let gs = write_spec(&g, "paper-3x3.toml", &format!("name = \"g\"\n{common}seeds = 3\n"));
+        let rs = write_spec(
+            &r,
+            "paper-3x3.toml",
+            &format!(
+                "name = \"r\"\nenv = \"robot\"\nrobot = [\"profile=ideal\", \"profile=realistic cell_diagnostics=true\"]\n{common}seeds = 2\n"
+            ),
+        );
+        let (go, ro) = (d.path().join("go"), d.path().join("ro"));
+        ok(mmq(&["sweep", &gs, "--out", &s(&go), "-q"]));
+        ok(mmq(&["sweep", &rs, "--out", &s(&ro), "-q"]));
+        let rep = d.path().join("rep");
+        let o = ok(mmq(&["sweep", "report", &s(&go), &s(&ro), "--out", &s(&rep)]));
+        assert!(o.contains("sweep g + r: 6 cells, 14 of 14 jobs finished"), "{o}");
+        let md = std::fs::read_to_string(rep.join("report.md")).unwrap();
+        for part in [
+            "# Sweeps `g` + `r`",
+            "| cell | env | learner | robot | seeds |",
+            "## Per learner and setting",
+            "Settings: 1 = `grid · –`; 2 = `robot · profile=ideal`; 3 = `robot · profile=realistic`.",
+            "Change from `grid · –` (percentage points):",
+            "## Learning curves",
+            "## Robot diagnostics",
+            "![3. robot · profile=realistic: belief error](cells-3-belief-error.png)",
+        ] {
+            assert!(md.contains(part), "{part}\n{md}");
+        }
+        // The ideal robot has no per-cell diagnostics: no heat map for setting 2.
+        assert!(!rep.join("cells-2-grid-mismatch.png").exists());
+        for f in ["by-setting.png", "curves-1.png", "curves-3.png", "cells-3-grid-mismatch.png"] {
+            assert!(rep.join(f).is_file(), "{f} missing");
+        }
+        // The ideal robot is the grid: over the same seeds its curve points are the
+        // grid's (seeds 0 and 1 of both).
+        let curve = |dir: &Path, robot: Option<&str>| -> Vec<String> {
+            let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+            let mut lines = csv.lines();
+            let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+            let at = |name: &str| head.iter().position(|h| *h == name);
+            let cols: Vec<usize> =
+                head.iter().enumerate().filter(|h| h.1.starts_with("curve/")).map(|h| h.0).collect();
+            assert_eq!(cols.len(), 2, "{head:?}");
+            lines
+                .map(|l| l.split(',').collect::<Vec<_>>())
+                .filter(|f| f[at("learner").unwrap()] == "q" && ["0", "1"].contains(&f[at("seed").unwrap()]))
+                .filter(|f| robot.is_none_or(|r| f[at("robot").unwrap()] == r))
+                .map(|f| cols.iter().map(|&c| f[c]).collect::<Vec<_>>().join(","))
+                .collect()
+        };
+        let grid = curve(&go, None);
+        assert_eq!(grid.len(), 2);
+        assert_eq!(grid, curve(&ro, Some("profile=ideal")));
+    }
 }
 
 mod bad_specs {

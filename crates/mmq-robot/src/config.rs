@@ -110,6 +110,7 @@ impl Preset {
             position_tolerance_m: 0.01,
             heading_tolerance_rad: 0.02,
             free_flight: true,
+            cell_diagnostics: false,
             noise: None,
             profile: Profile::Ideal,
             realistic: RealisticConfig::for_preset(self),
@@ -221,6 +222,9 @@ pub struct RobotConfig {
     /// the free disc with rapier's own integrator instead: the trajectory is bit-identical
     /// to stepping rapier every time (tested), and several times faster. Default true.
     pub free_flight: bool,
+    /// Also count the diagnostics per cell (`robot/cells/...` in `stats()`, see
+    /// docs/robot.md): one figure per free cell, so off by default. Default false.
+    pub cell_diagnostics: bool,
     /// Actuation noise; `None` (the default) is noise-free. The realistic profile turns
     /// it on with the defaults unless the table gives it.
     pub noise: Option<NoiseConfig>,
@@ -259,13 +263,15 @@ pub struct RobotTable {
     pub position_tolerance_m: Option<f64>,
     pub heading_tolerance_rad: Option<f64>,
     pub free_flight: Option<bool>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cell_diagnostics: Option<bool>,
     pub noise: Option<NoiseConfig>,
     pub profile: Option<Profile>,
     pub realistic: Option<RealisticTable>,
 }
 
 /// The top-level fields of the `[robot]` table (`noise` and `realistic` are sub-tables).
-pub const TABLE_FIELDS: [&str; 19] = [
+pub const TABLE_FIELDS: [&str; 20] = [
     "preset",
     "wheel_base_m",
     "radius_m",
@@ -282,6 +288,7 @@ pub const TABLE_FIELDS: [&str; 19] = [
     "position_tolerance_m",
     "heading_tolerance_rad",
     "free_flight",
+    "cell_diagnostics",
     "noise",
     "profile",
     "realistic",
@@ -319,7 +326,8 @@ impl TryFrom<RobotTable> for RobotConfig {
             timeout_factor,
             position_tolerance_m,
             heading_tolerance_rad,
-            free_flight
+            free_flight,
+            cell_diagnostics
         );
         c.noise = t.noise;
         c.profile = t.profile.unwrap_or_default();
@@ -597,6 +605,7 @@ impl RobotConfig {
             position_tolerance_m: Some(self.position_tolerance_m),
             heading_tolerance_rad: Some(self.heading_tolerance_rad),
             free_flight: Some(self.free_flight),
+            cell_diagnostics: self.cell_diagnostics.then_some(true),
             noise: self.noise,
             profile: Some(self.profile),
             realistic: (self.profile == Profile::Realistic)

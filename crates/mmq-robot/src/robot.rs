@@ -96,7 +96,7 @@ impl Core {
             started_now: false,
             pressing_now: false,
             real: (cfg_profile == Profile::Realistic).then(|| Box::new(Realistic::new(&cfg_for_real))),
-            diag: Diagnostics::default(),
+            diag: Diagnostics::new(world, cfg_for_real.cell_diagnostics),
             expected: None,
         })
     }
@@ -476,6 +476,7 @@ impl Core {
         .into_iter()
         .map(|(k, v)| (k.to_string(), v))
         .chain(self.diag.stats(self.time_s, self.real.is_some()))
+        .chain(self.diag.cell_stats())
         .collect()
     }
 }

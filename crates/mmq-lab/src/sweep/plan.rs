@@ -1,0 +1,141 @@
+//! The plan of a sweep (cells in product order, seeds, swept axes), job indices and
+//! paths, cell-id hashing, and shards (disjoint parts of the jobs).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::LabError;
+
+/// Cells, seeds and swept axes of a sweep: everything its outputs are keyed by. Shards
+/// of one sweep have equal plans; [`super::merge`] checks it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Plan {
+    /// Name of the sweep (spec `name`, default the file stem).
+    pub name: String,
+    /// Free text (spec `description`).
+    pub description: String,
+    /// Parameter names, in the order of every cell's `params` ([`super::FIELDS`]).
+    pub fields: Vec<String>,
+    /// The fields given as lists (the swept axes), in [`super::FIELDS`] order.
+    pub axes: Vec<String>,
+    /// Master seeds run for every cell.
+    pub seeds: Vec<u64>,
+    /// The cells in product order (first field outermost).
+    pub cells: Vec<PlanCell>,
+}
+
+/// One cell of the product.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanCell {
+    /// Stable id: hash of the parameters as written and of the world file's bytes.
+    pub id: String,
+    /// Every parameter's value as text, aligned with [`Plan::fields`].
+    pub params: Vec<String>,
+}
+
+impl Plan {
+    /// Number of (cell, seed) jobs.
+    pub fn jobs(&self) -> usize {
+        self.cells.len() * self.seeds.len()
+    }
+
+    /// Cell index and master seed of job `j` (seeds vary fastest).
+    pub fn job(&self, j: usize) -> (usize, u64) {
+        let n = self.seeds.len().max(1);
+        (j / n, self.seeds[j % n])
+    }
+
+    /// The value of `field` in cell `cell`.
+    pub fn param(&self, cell: usize, field: &str) -> &str {
+        let i = self.fields.iter().position(|f| f == field).unwrap_or(usize::MAX);
+        self.cells[cell].params.get(i).map_or("", |s| s.as_str())
+    }
+
+    /// Distinct values of an axis in the order they appear.
+    pub fn axis_values(&self, axis: &str) -> Vec<String> {
+        let mut seen = Vec::<String>::new();
+        for c in 0..self.cells.len() {
+            let v = self.param(c, axis);
+            if !seen.iter().any(|s| s == v) {
+                seen.push(v.to_string());
+            }
+        }
+        seen
+    }
+
+    /// The parameters that are the same in every cell, as `(field, value)`.
+    pub fn fixed(&self) -> Vec<(String, String)> {
+        self.fields
+            .iter()
+            .filter(|f| !self.axes.contains(f))
+            .map(|f| (f.clone(), if self.cells.is_empty() { String::new() } else { self.param(0, f).into() }))
+            .collect()
+    }
+
+    pub(super) fn job_path(&self, dir: &Path, j: usize) -> PathBuf {
+        let (c, seed) = self.job(j);
+        dir.join("cells").join(&self.cells[c].id).join(format!("seed-{seed}.json"))
+    }
+}
+
+/// 64-bit FNV-1a: a small, stable, dependency-free hash for ids (not for security).
+pub(super) fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// The K-th of N disjoint parts of a sweep's jobs: job j belongs to shard
+/// `j mod N + 1`, so every shard gets a share of every cell.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// K, in 1..=count.
+    pub index: u64,
+    /// N.
+    pub count: u64,
+}
+
+impl Shard {
+    /// Parses `K/N` with 1 ≤ K ≤ N.
+    pub fn parse(s: &str) -> Result<Shard, LabError> {
+        let bad = || LabError::param("--shard", s, "use K/N with 1 <= K <= N, e.g. 2/8 (Slurm: --array=1-N)");
+        let (k, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: u64 = k.trim().parse().map_err(|_| bad())?;
+        let count: u64 = n.trim().parse().map_err(|_| bad())?;
+        if index == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// Whether job `j` is in this shard.
+    pub fn contains(&self, j: usize) -> bool {
+        (j as u64) % self.count == self.index - 1
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_are_disjoint_and_cover() {
+        let shards: Vec<Shard> = (1..=3).map(|k| Shard::parse(&format!("{k}/3")).unwrap()).collect();
+        for j in 0..50 {
+            assert_eq!(shards.iter().filter(|s| s.contains(j)).count(), 1);
+        }
+        for bad in ["0/3", "4/3", "3", "a/b", "1/0"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! Stored results: `sweep.json` (the manifest), one file per finished job, written
+//! by rename so that readers never see a part, and read back bit for bit.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::plan::{Plan, Shard};
+use super::report::results_csv;
+use super::{FORMAT, MAX_JOB_BYTES, MAX_MANIFEST_BYTES, Metrics};
+use crate::error::LabError;
+use crate::output::write_atomic;
+
+/// `sweep.json`: the plan and the status of one output directory.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// [`FORMAT`].
+    pub format: String,
+    /// Version of mmq that wrote it.
+    pub mmq_version: String,
+    /// The spec file as given on the command line (`merged` after a merge).
+    pub spec_file: String,
+    /// `K/N` when this directory holds one shard.
+    pub shard: Option<String>,
+    /// Jobs of the whole sweep.
+    pub jobs_total: usize,
+    /// Jobs this directory is responsible for (its shard, or all).
+    pub jobs_here: usize,
+    /// Of those, finished.
+    pub done: usize,
+    /// Whether every job this directory is responsible for is finished.
+    pub complete: bool,
+    /// Cells and seeds.
+    pub plan: Plan,
+}
+
+/// One finished job, `cells/<cell-id>/seed-<n>.json`. Metric values are stored as text
+/// in Rust's shortest round-trip form (`NaN`, `inf` included), so they read back bit
+/// for bit.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct StoredJob {
+    format: String,
+    mmq_version: String,
+    cell: String,
+    seed: u64,
+    params: BTreeMap<String, String>,
+    metrics: BTreeMap<String, String>,
+}
+
+pub(super) fn encode(x: f64) -> String {
+    if x.is_nan() { "NaN".into() } else { x.to_string() }
+}
+
+/// Reads job `j`'s file in `dir` if it is there and belongs to this plan's cell.
+pub(super) fn read_job(dir: &Path, plan: &Plan, j: usize) -> Option<Metrics> {
+    let (c, seed) = plan.job(j);
+    // A job file is a few KiB; anything else (a link to /dev/zero, a FIFO, a huge file)
+    // is not a finished job and is run again.
+    let text = mmq_core::files::read_text_bounded(&plan.job_path(dir, j), MAX_JOB_BYTES).ok()?;
+    let s: StoredJob = serde_json::from_str(&text).ok()?;
+    let cell = &plan.cells[c];
+    let params_match =
+        plan.fields.iter().zip(&cell.params).all(|(f, v)| s.params.get(f).is_some_and(|x| x == v));
+    if s.format != FORMAT || s.cell != cell.id || s.seed != seed || !params_match {
+        return None;
+    }
+    s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect()
+}
+
+pub(super) fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) -> Result<(), LabError> {
+    let (c, seed) = plan.job(j);
+    let cell = &plan.cells[c];
+    let s = StoredJob {
+        format: FORMAT.into(),
+        mmq_version: env!("CARGO_PKG_VERSION").into(),
+        cell: cell.id.clone(),
+        seed,
+        params: plan.fields.iter().cloned().zip(cell.params.iter().cloned()).collect(),
+        metrics: metrics.iter().map(|(k, v)| (k.clone(), encode(*v))).collect(),
+    };
+    let text = serde_json::to_string_pretty(&s).unwrap_or_default() + "\n";
+    write_renamed(&plan.job_path(dir, j), text.as_bytes())
+}
+
+/// Writes `bytes` to a temporary file and renames it to `path`: readers see the old file
+/// or the new one, never a part. Unlike [`write_atomic`] it does not wait for the disk
+/// (fsync): a job file lost or emptied by a crash of the machine fails to parse, and
+/// the job is simply run again, while thousands of short jobs are not slowed down.
+pub(super) fn write_renamed(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
+    let io = |source| LabError::Io { path: path.to_path_buf(), source };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// Finished results of every job of `plan` found in `dir` (None where missing).
+pub fn load_results(dir: &Path, plan: &Plan) -> Vec<Option<Metrics>> {
+    (0..plan.jobs()).into_par_iter().map(|j| read_job(dir, plan, j)).collect()
+}
+
+/// Reads `DIR/sweep.json`.
+pub fn read_manifest(dir: &Path) -> Result<Manifest, LabError> {
+    let p = dir.join("sweep.json");
+    let text = mmq_core::files::read_text_bounded(&p, MAX_MANIFEST_BYTES).map_err(|e| LabError::Config {
+        file: p.display().to_string(),
+        message: format!("not a sweep output directory ({e}); run `mmq sweep SPEC --out DIR` first"),
+    })?;
+    let m: Manifest = serde_json::from_str(&text)
+        .map_err(|e| LabError::Config { file: p.display().to_string(), message: e.to_string() })?;
+    if m.format != FORMAT {
+        return Err(LabError::Config {
+            file: p.display().to_string(),
+            message: format!("format `{}` is not {FORMAT}", m.format),
+        });
+    }
+    Ok(m)
+}
+
+pub(super) fn write_manifest(dir: &Path, m: &Manifest) -> Result<(), LabError> {
+    let text = serde_json::to_string_pretty(m).unwrap_or_default() + "\n";
+    write_atomic(&dir.join("sweep.json"), text.as_bytes())
+}
+
+/// Writes `DIR/results.csv` and `DIR/sweep.json` from the files in `dir`.
+pub(super) fn finish_dir(
+    dir: &Path,
+    plan: &Plan,
+    spec_file: &str,
+    shard: Option<Shard>,
+) -> Result<(PathBuf, usize, usize, usize), LabError> {
+    let results = load_results(dir, plan);
+    let (csv, rows) = results_csv(plan, &results);
+    let csv_path = dir.join("results.csv");
+    write_atomic(&csv_path, csv.as_bytes())?;
+    let here: Vec<usize> = (0..plan.jobs()).filter(|&j| shard.is_none_or(|s| s.contains(j))).collect();
+    let done = here.iter().filter(|&&j| results[j].is_some()).count();
+    write_manifest(
+        dir,
+        &Manifest {
+            format: FORMAT.into(),
+            mmq_version: env!("CARGO_PKG_VERSION").into(),
+            spec_file: spec_file.into(),
+            shard: shard.map(|s| s.to_string()),
+            jobs_total: plan.jobs(),
+            jobs_here: here.len(),
+            done,
+            complete: done == here.len(),
+            plan: plan.clone(),
+        },
+    )?;
+    Ok((csv_path, rows, here.len(), done))
+}
