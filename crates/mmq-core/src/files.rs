@@ -57,10 +57,21 @@ pub fn temporary_name(path: &Path) -> PathBuf {
 /// failed write (a full disk, a file-size limit) leaves no temporary file and returns the
 /// error. The folder must exist.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    via_temporary(path, bytes, true)
+}
+
+/// [`write_atomic`] without waiting for the disk (no fsync): readers still see the old
+/// file or the new one, never a part, but a crash of the machine may leave the file
+/// empty. For many small files that are cheap to redo (a sweep's job results).
+pub fn write_renamed(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
+    via_temporary(path, bytes, false)
+}
+
+fn via_temporary(path: &Path, bytes: &[u8], sync: bool) -> std::io::Result<()> {
     let tmp = temporary_name(path);
     let written = std::fs::File::create(&tmp).and_then(|mut f| {
         f.write_all(bytes)?;
-        f.sync_all()
+        if sync { f.sync_all() } else { Ok(()) }
     });
     written.and_then(|()| std::fs::rename(&tmp, path)).inspect_err(|_| {
         let _ = std::fs::remove_file(&tmp);

@@ -86,19 +86,17 @@ pub(super) fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) ->
     write_renamed(&plan.job_path(dir, j), text.as_bytes())
 }
 
-/// Writes `bytes` to a temporary file and renames it to `path`: readers see the old file
-/// or the new one, never a part. Unlike [`write_atomic`] it does not wait for the disk
-/// (fsync): a job file lost or emptied by a crash of the machine fails to parse, and
-/// the job is simply run again, while thousands of short jobs are not slowed down.
+/// Writes a job file with [`mmq_core::files::write_renamed`]: readers see the old file or
+/// the new one, never a part, and a failed write leaves no temporary file. Unlike
+/// [`write_atomic`] it does not wait for the disk (fsync): a job file lost or emptied by a
+/// crash of the machine fails to parse, and the job is simply run again, while thousands
+/// of short jobs are not slowed down.
 pub(super) fn write_renamed(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
     let io = |source| LabError::Io { path: path.to_path_buf(), source };
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    mmq_core::files::write_renamed(path, bytes).map_err(io)
 }
 
 /// Finished results of every job of `plan` found in `dir` (None where missing).
