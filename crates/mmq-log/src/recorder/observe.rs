@@ -101,9 +101,18 @@ impl Observer for McapRecorder {
             estimates_seen: false,
         });
         self.write_scenes(start_ns);
-        self.heading = 0.0;
-        if grid || initial_state < info.world.num_cells() {
-            self.write_cell_pose(start_ns, initial_state);
+        // The first pose: the robot's own (its true heading), else the start cell's centre.
+        match info.start_pose.filter(|p| !grid && p.x.is_finite() && p.y.is_finite() && p.theta.is_finite()) {
+            Some(p) => {
+                self.heading = p.theta;
+                self.write_pose(start_ns, p.x, p.y, p.theta);
+            }
+            None => {
+                self.heading = 0.0;
+                if grid || initial_state < info.world.num_cells() {
+                    self.write_cell_pose(start_ns, initial_state);
+                }
+            }
         }
         self.prev_recorded = true;
         self.note(
