@@ -145,3 +145,41 @@ fn verify_refuses_absurd_runs_names_paths_and_stops() {
     }
     assert_eq!(std::fs::read_dir(scratch.path()).unwrap().count(), 0, "the scratch logs are removed");
 }
+
+/// The realistic robot profile (a `--robot` override, kept in the file's config, not in
+/// its world) re-runs bit for bit, with rewards delayed in seconds.
+#[test]
+fn a_realistic_robot_run_with_delays_in_seconds_verifies() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = RunConfig {
+        world: world(),
+        env: EnvKind::Robot,
+        steps: 120,
+        seed: 5,
+        delay: "exponential:3s".into(),
+        baseline: false,
+        save_tables: false,
+        eval_steps: 0,
+        record: Some(RecordSettings::default()),
+        robot: vec!["profile=realistic".into()],
+        ..RunConfig::default()
+    };
+    let w = cfg.load_world().unwrap();
+    let stop = AtomicBool::new(false);
+    let factory = recorder_factory(&cfg, dir.path());
+    run_all(&cfg, &w, &factory, Control { stop: &stop, progress: &|_| {} }).unwrap();
+    let log = mmq_log::read_log(trajectory_path(dir.path(), 5)).unwrap();
+    // Delays in seconds are recorded as drawn: no steps at emission, the due time in seconds.
+    assert!(!log.emitted.is_empty());
+    for e in &log.emitted {
+        let m = &e.msg;
+        assert_eq!((m.delay, m.due), (None, None));
+        let (t, d, due) = (m.t_emit_s.unwrap(), m.delay_s.unwrap(), m.due_s.unwrap());
+        assert!(d >= 0.0 && due == t + d, "{m:?}");
+    }
+    let scratch = tempfile::tempdir().unwrap();
+    match verify(&log, scratch.path(), &stop).unwrap() {
+        Verdict::Identical { decisions, .. } => assert_eq!(decisions, 120),
+        v => panic!("a realistic robot run: {v:?}"),
+    }
+}
