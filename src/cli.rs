@@ -226,7 +226,8 @@ pub struct ReplayArgs {
     /// Print the summary (the default when nothing else is asked).
     #[arg(long)]
     pub summary: bool,
-    /// Draw the arena and the trajectory to an SVG file.
+    /// Draw the arena and the trajectory, with a scale bar and a legend, to an SVG file
+    /// and a PNG next to it (same name, `.png`).
     #[arg(long)]
     pub render: Option<PathBuf>,
     /// Re-run the simulation from the file's metadata and check it matches bit for bit.

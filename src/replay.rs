@@ -25,7 +25,9 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
             mmq_log::messages::topics::DECISION
         )));
     }
-    if let Some(stop) = &log.stop {
+    let summary = a.summary || (a.render.is_none() && !a.verify);
+    // The summary says where reading stopped; otherwise one warning says it.
+    if let Some(stop) = log.stop.as_ref().filter(|_| !summary) {
         eprintln!(
             "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",
             a.file.display(),
@@ -35,7 +37,7 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
             stop.messages
         );
     }
-    if a.summary || (a.render.is_none() && !a.verify) {
+    if summary {
         print!("{}", mmq_log::summary(&log));
     }
     if let Some(out) = &a.render {
@@ -56,29 +58,42 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
                 out.display()
             )));
         }
-        mmq_log::render(&log, out, window)?;
-        println!("wrote {}", out.display());
+        let [svg, png] = mmq_log::render(&log, out, window)?;
+        println!("wrote {} and {}", svg.display(), png.display());
     }
     if a.verify {
-        let scratch = tempdir()?;
-        let verdict = verify(&log, &scratch);
-        let _ = std::fs::remove_dir_all(&scratch);
-        match verdict? {
-            Verdict::Identical { decisions, poses } => {
+        let scratch = std::env::temp_dir();
+        if !scratch.is_dir() {
+            return Err(Failure {
+                code: crate::exit::RUNTIME,
+                error: anyhow::anyhow!(
+                    "verify: the temporary folder {} does not exist; the re-run writes its log there: \
+                     set TMPDIR to a writable folder",
+                    scratch.display()
+                ),
+            });
+        }
+        match verify(&log, &scratch, stop)? {
+            Verdict::Identical { decisions, poses, steps, truncated } => {
+                let held = if truncated {
+                    format!(
+                        "; the file holds only the first {steps} steps of its run, and those were checked"
+                    )
+                } else {
+                    String::new()
+                };
                 println!(
-                    "verify: OK: the re-run matches the log bit for bit ({decisions} decisions, {poses} poses)"
+                    "verify: OK: the re-run matches the log bit for bit ({decisions} decisions, {poses} poses{held})"
                 );
             }
             Verdict::Differs(m) => {
                 return Err(Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("verify: {m}") });
             }
+            Verdict::Interrupted { steps } => {
+                // Exit 130 (the stop flag is up): nothing concluded.
+                eprintln!("verify: interrupted after re-running {steps} steps; nothing concluded");
+            }
         }
     }
     Ok(())
-}
-
-fn tempdir() -> Result<std::path::PathBuf, Failure> {
-    let d = std::env::temp_dir().join(format!("mmq-verify-{}", std::process::id()));
-    std::fs::create_dir_all(&d)?;
-    Ok(d)
 }

@@ -505,3 +505,88 @@ mod live {
         }
     }
 }
+
+mod replay_verify {
+    use super::*;
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+
+    /// Records a grid run of `steps` into `dir`; returns the file.
+    fn record(dir: &std::path::Path, env: &str, steps: &str) -> std::path::PathBuf {
+        let out = dir.to_string_lossy().into_owned();
+        let o =
+            mmq(&["run", "--env", env, "--steps", steps, "--record", "--no-baseline", "-q", "--out", &out]);
+        assert!(o.status.success(), "{:?}", text(&o));
+        dir.join("trajectory-seed0.mcap")
+    }
+
+    /// An interrupted write (the MCAP holds a prefix) verifies what it holds, with one
+    /// warning; a missing scratch folder is named; no scratch file stays behind.
+    #[test]
+    fn a_truncated_recording_verifies_with_one_warning() {
+        let d = tempfile::tempdir().unwrap();
+        let file = record(d.path(), "grid", "30000");
+        let bytes = std::fs::read(&file).unwrap();
+        let cut = d.path().join("cut.mcap");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let scratch = tempfile::tempdir().unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_mmq"))
+            .args(["replay", &cut.to_string_lossy(), "--verify"])
+            .env("TMPDIR", scratch.path())
+            .output()
+            .unwrap();
+        let (out, err) = text(&o);
+        assert_eq!(o.status.code(), Some(0), "{out}\n{err}");
+        assert!(out.contains("verify: OK") && out.contains("holds only the first"), "{out}");
+        assert_eq!(err.matches("read stopped").count(), 1, "{err}");
+        assert_eq!(std::fs::read_dir(scratch.path()).unwrap().count(), 0, "scratch files left behind");
+        let missing = scratch.path().join("gone");
+        let o = Command::new(env!("CARGO_BIN_EXE_mmq"))
+            .args(["replay", &file.to_string_lossy(), "--verify"])
+            .env("TMPDIR", &missing)
+            .output()
+            .unwrap();
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(&missing.display().to_string()), "{err}");
+    }
+
+    /// The first Ctrl-C stops a long verification: exit 130, nothing concluded, no
+    /// scratch file left.
+    #[test]
+    fn ctrl_c_stops_a_verification() {
+        let d = tempfile::tempdir().unwrap();
+        let file = record(d.path(), "grid", "300000");
+        let scratch = tempfile::tempdir().unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_mmq"))
+            .args(["replay", &file.to_string_lossy(), "--verify"])
+            .env("TMPDIR", scratch.path())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        // Once the re-run writes its log, it is under way.
+        let t0 = Instant::now();
+        while std::fs::read_dir(scratch.path()).unwrap().count() == 0
+            && t0.elapsed() < Duration::from_secs(60)
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let pid = child.id().to_string();
+        let st = Command::new("kill").args(["-INT", &pid]).status().unwrap();
+        assert!(st.success());
+        let deadline = Instant::now() + Duration::from_secs(60);
+        while child.try_wait().unwrap().is_none() {
+            if Instant::now() > deadline {
+                let _ = child.kill();
+                panic!("verify did not stop within 60 s of Ctrl-C");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let o = child.wait_with_output().unwrap();
+        let (out, err) = text(&o);
+        assert_eq!(o.status.code(), Some(130), "{out}\n{err}");
+        assert!(err.contains("interrupted") && !out.contains("verify: OK"), "{out}\n{err}");
+        assert_eq!(std::fs::read_dir(scratch.path()).unwrap().count(), 0, "scratch files left behind");
+    }
+}

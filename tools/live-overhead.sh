@@ -1,17 +1,61 @@
 #!/bin/bash
-# Run from the repository root after: cargo build --release -p mmq -p mmq-log --bins --example live_client
-# Overhead of --live: the same run without --live, with --live and no client, with a client.
-M=target/release/mmq
+# Overhead of `mmq run --live`: the same run without --live, with --live and no client,
+# and with one client watching (unpaced, and paced); REPS rounds (default 5), the cases
+# of a round run back to back so that the machine's load hits them alike; then the
+# median wall-clock and CPU seconds of each case and its overhead against the plain run.
+#
+# From the repository root, after
+#   cargo build --release --workspace
+#   cargo build --release --workspace --examples     # the client: examples/live_client
+# Usage: REPS=5 bash tools/live-overhead.sh   (MMQ=path/to/mmq measures another binary)
+set -euo pipefail
+REPS=${REPS:-5}
+M=${MMQ:-target/release/mmq}
 C=target/release/examples/live_client
-O=${TMPDIR:-/tmp}/mmq-live-overhead; rm -rf $O; mkdir -p $O
-t() { /usr/bin/time -f "%e s wall, %U+%S s cpu" "$@" 2>&1 >/dev/null | tail -1; }
-for i in 1 2 3; do
-  echo "grid plain:      $(t $M run --env grid --learner mmq --steps 3000000 --no-baseline --no-tables --eval-steps 0 -q --out $O/g)"
-  echo "grid live:       $(t $M run --env grid --learner mmq --steps 3000000 --no-baseline --no-tables --eval-steps 0 -q --out $O/g --live 0)"
-  echo "robot plain:     $(t $M run --env robot --learner mmq --steps 20000 --no-baseline --no-tables --eval-steps 0 -q --out $O/r)"
-  echo "robot live:      $(t $M run --env robot --learner mmq --steps 20000 --no-baseline --no-tables --eval-steps 0 -q --out $O/r --live 0)"
-  P=$((18765 + i))
-  ($C 127.0.0.1:$P > $O/client$i.txt 2>&1 &)
-  echo "robot live+client: $(t $M run --env robot --learner mmq --steps 20000 --no-baseline --no-tables --eval-steps 0 -q --out $O/r --live 127.0.0.1:$P --live-speed 0)"
-  sleep 1; tail -1 $O/client$i.txt
-done
+O=$(mktemp -d "${TMPDIR:-/tmp}/mmq-live-overhead.XXXXXX")
+trap 'rm -rf "$O"' EXIT
+# One timed run: prints "wall cpu" (seconds; cpu = user + system).
+t() { /usr/bin/time -f "%e %U %S" "$@" 2>&1 >/dev/null | tail -1 | awk '{print $1, $2 + $3}'; }
+Q="--learner mmq --no-baseline --no-tables --eval-steps 0 -q"
+GRID="run --env grid --steps 3000000 $Q"
+ROBOT="run --env robot --steps 20000 $Q"
+# Paced: 300 primitives at 50× real time (some 15 s of wall time); its cost is the extra
+# CPU time as a share of that wall time (the run itself mostly waits for the clock).
+PACED="run --env robot --steps 300 $Q"
+port=18765
+client() { port=$((port + 1)); ($C 127.0.0.1:$port > "$O/client-$1-$port.txt" 2>&1 &); }
+echo "# rounds: $REPS; load at start: $(cut -d' ' -f1-3 /proc/loadavg)"
+for i in $(seq "$REPS"); do
+  echo "round $i load $(cut -d' ' -f1 /proc/loadavg)"
+  echo "grid-plain $(t $M $GRID --out "$O/g")"
+  echo "grid-live $(t $M $GRID --out "$O/g" --live 0)"
+  client grid
+  echo "grid-client $(t $M $GRID --out "$O/g" --live 127.0.0.1:$port --live-speed 0)"
+  echo "robot-plain $(t $M $ROBOT --out "$O/r")"
+  echo "robot-live $(t $M $ROBOT --out "$O/r" --live 0)"
+  client robot
+  echo "robot-client $(t $M $ROBOT --out "$O/r" --live 127.0.0.1:$port --live-speed 0)"
+  echo "paced-plain $(t $M $PACED --out "$O/p")"
+  client paced
+  echo "paced-client $(t $M $PACED --out "$O/p" --live 127.0.0.1:$port --live-speed 50)"
+done | tee "$O/raw.txt"
+sleep 1
+echo "# what the clients received (last round):"
+for f in "$O"/client-*.txt; do echo "$(basename "$f"): $(tail -1 "$f")"; done | tail -3
+python3 - "$O/raw.txt" <<'EOF'
+import statistics, sys
+runs = {}
+for line in open(sys.argv[1]):
+    p = line.split()
+    if len(p) == 3 and not line.startswith("round"):
+        runs.setdefault(p[0], []).append((float(p[1]), float(p[2])))
+med = {k: (statistics.median(w for w, _ in v), statistics.median(c for _, c in v)) for k, v in runs.items()}
+print(f"{'case':<14} {'n':>2} {'wall s':>8} {'cpu s':>8} {'wall vs plain':>14} {'cpu vs plain':>13}")
+for k, (w, c) in med.items():
+    base = med.get(k.split("-")[0] + "-plain")
+    rel = "" if base is None or k.endswith("plain") else f"{100 * (w / base[0] - 1):+13.1f}% {100 * (c / base[1] - 1):+12.1f}%"
+    print(f"{k:<14} {len(runs[k]):>2} {w:8.2f} {c:8.2f} {rel}")
+if "paced-client" in med and "paced-plain" in med:
+    (w, c), (_, c0) = med["paced-client"], med["paced-plain"]
+    print(f"paced watching: {c - c0:.2f} s of extra CPU in {w:.2f} s of run time = {100 * (c - c0) / w:.1f} %")
+EOF

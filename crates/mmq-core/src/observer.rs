@@ -5,7 +5,7 @@
 //! the runner holds no observer at all.
 
 use crate::channel::{Emission, Ledger};
-use crate::env::{Action, Event, State, StepTrace};
+use crate::env::{Action, Event, PoseSample, State, StepTrace};
 use crate::world::World;
 
 /// Everything known about one decision step.
@@ -67,6 +67,10 @@ pub struct RunInfo<'a> {
     pub env_kind: &'a str,
     /// Extra key/value facts (versions, physics features, dt).
     pub facts: &'a [(String, String)],
+    /// The agent's pose after the reset, where the environment has a continuous one
+    /// (the robot: position and heading, [`crate::Env::pose`]); `None` for the grid,
+    /// whose pose is the start cell's centre.
+    pub start_pose: Option<PoseSample>,
 }
 
 /// Receives the steps of a run.

@@ -2,6 +2,7 @@
 //! a configuration asks for it (`RunConfig::record`), and nothing at all otherwise.
 
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_core::Observer;
 use mmq_log::{McapRecorder, RecorderConfig, StepWindow};
@@ -44,6 +45,10 @@ pub fn recorder_factory(
     move |seed| recorder_config(&cfg, trajectory_path(&out, seed)).map(open).transpose()
 }
 
+/// Most decision steps `verify` re-runs (10⁹: minutes to hours of work). A `config.toml`
+/// attachment asking for more is refused before anything runs.
+pub const MAX_VERIFY_STEPS: u64 = 1_000_000_000;
+
 /// What `verify` found.
 #[derive(Debug)]
 pub enum Verdict {
@@ -53,15 +58,70 @@ pub enum Verdict {
         decisions: usize,
         /// Poses compared.
         poses: usize,
+        /// Steps re-run.
+        steps: u64,
+        /// The file holds only a prefix of its run (an interrupted write): what it holds
+        /// was checked, up to its last recorded step.
+        truncated: bool,
     },
     /// The first difference.
     Differs(mmq_log::Mismatch),
+    /// The stop flag was raised: the re-run stopped after `steps` steps, nothing concluded.
+    Interrupted {
+        /// Steps re-run before the stop.
+        steps: u64,
+    },
+}
+
+/// Passes a run to the recorder and raises `halt` once `limit` steps are done or `stop`
+/// is raised.
+struct Halting {
+    rec: Box<dyn Observer + Send>,
+    limit: u64,
+    halt: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl Observer for Halting {
+    fn trace_period_s(&self) -> Option<f64> {
+        self.rec.trace_period_s()
+    }
+    fn on_start(&mut self, info: &mmq_core::RunInfo<'_>, s: mmq_core::State, t: f64) {
+        self.rec.on_start(info, s, t);
+    }
+    fn on_step(&mut self, r: &mmq_core::StepRecord<'_>) {
+        self.rec.on_step(r);
+        if r.t + 1 >= self.limit || self.stop.load(Ordering::Relaxed) {
+            self.halt.store(true, Ordering::Relaxed);
+        }
+    }
+    fn on_tables(&mut self, t: u64, s: f64, v: &[f64], q: &[f64]) {
+        self.rec.on_tables(t, s, v, q);
+    }
+    fn on_finish(&mut self, t: u64, complete: bool) {
+        self.rec.on_finish(t, complete);
+    }
+}
+
+/// Removes a file when dropped (the re-run's scratch log, on every way out).
+struct Scratch(PathBuf);
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
 }
 
 /// Re-runs the simulation described by a log's metadata (its `config.toml` and
 /// `world.toml` attachments and the `seed` fact) with the same recorder settings, and
 /// compares the two logs message by message.
-pub fn verify(log: &mmq_log::LogContents, scratch: &Path) -> Result<Verdict, LabError> {
+///
+/// A file that holds only a prefix of its run (an interrupted write) is checked as far as
+/// it goes: the re-run stops after the last step it records, and the re-run's messages
+/// past the file's last one are not compared. The re-run writes its log into the folder
+/// `scratch` (which must exist) and removes it on every way out; it stops early, with
+/// [`Verdict::Interrupted`], when `stop` is raised.
+pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> Result<Verdict, LabError> {
     let file = log.path.display().to_string();
     let bad = |message: String| LabError::Config { file: file.clone(), message };
     let cfg_text = log.attachment("config.toml").ok_or_else(|| {
@@ -69,7 +129,13 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path) -> Result<Verdict, Lab
     })?;
     let mut cfg =
         RunConfig::from_toml(&String::from_utf8_lossy(&cfg_text.data), &format!("{file}#config.toml"))?;
-    let world = log.world().map_err(|e| bad(e.to_string()))?;
+    let mut world = log.world().map_err(|e| bad(e.to_string()))?;
+    // The file holds the world as written; the run's `--robot` overrides are in its config.
+    if !cfg.robot.is_empty() {
+        let table = mmq_robot::apply_overrides(world.robot.as_ref(), &cfg.robot)
+            .map_err(|e| bad(format!("its config.toml's robot overrides: {e}")))?;
+        world.robot = Some(table);
+    }
     let seed: u64 = log
         .run_fact("seed")
         .and_then(|s| s.parse().ok())
@@ -77,19 +143,87 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path) -> Result<Verdict, Lab
     if cfg.record.is_none() {
         return Err(bad("the log's config has no [record] settings".into()));
     }
+    if cfg.steps > MAX_VERIFY_STEPS {
+        return Err(bad(format!(
+            "its config.toml asks for steps = {}; verify re-runs at most {MAX_VERIFY_STEPS} steps \
+             (a damaged or hand-edited file?)",
+            cfg.steps
+        )));
+    }
     // The learner's own run is what the log holds; the baseline and tables are not needed.
     cfg.baseline = false;
     cfg.save_tables = false;
     cfg.eval_steps = 0;
     let dist = cfg.validate()?;
-    let path = scratch.join(format!("verify-seed{seed}.mcap"));
+    // Where the file ends: its "end" record (steps done), or its last recorded decision.
+    let ended: Option<u64> =
+        log.metadata.get("end").and_then(|e| e.get("steps")).and_then(|s| s.parse().ok());
+    let truncated = !log.complete || ended.is_none();
+    let limit = match ended.filter(|_| log.complete) {
+        Some(n) => n,
+        None => log.decisions.last().map_or(0, |d| d.msg.t.saturating_add(1)),
+    };
+    if limit > cfg.steps {
+        return Err(bad(format!(
+            "the file records {limit} steps but its config.toml asks for steps = {}",
+            cfg.steps
+        )));
+    }
+    if limit == 0 {
+        return Err(bad("the file holds no decision step to verify".into()));
+    }
+    if !scratch.is_dir() {
+        return Err(LabError::Io {
+            path: scratch.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                "the scratch folder for the re-run's log does not exist",
+            ),
+        });
+    }
+    let path = scratch.join(format!("verify-seed{seed}-{}.mcap", std::process::id()));
+    let _scratch = Scratch(path.clone());
+    // The recorder's window counts from the configured length; the run stops at `limit`.
     let rec = recorder_config(&cfg, path.clone()).map(open).transpose()?;
-    let stop = std::sync::atomic::AtomicBool::new(false);
-    let ctl = crate::runner::Control { stop: &stop, progress: &|_| {} };
-    crate::runner::run_seed(&cfg, &world, &dist, seed, rec, ctl, crate::runner::memory_limit(1))?;
+    let stopped = stop.load(Ordering::Relaxed);
+    let halt = std::sync::Arc::new(AtomicBool::new(stopped));
+    let user_stop = std::sync::Arc::new(AtomicBool::new(stopped));
+    let observer = rec.map(|rec| {
+        Box::new(Halting { rec, limit, halt: halt.clone(), stop: user_stop.clone() })
+            as Box<dyn Observer + Send>
+    });
+    let ctl = crate::runner::Control { stop: &halt, progress: &|_| {} };
+    let done = AtomicBool::new(false);
+    let result = std::thread::scope(|s| {
+        // The caller's stop flag, passed on to the re-run (whose observer needs its own).
+        s.spawn(|| {
+            while !done.load(Ordering::Relaxed) {
+                if stop.load(Ordering::Relaxed) {
+                    user_stop.store(true, Ordering::Relaxed);
+                    halt.store(true, Ordering::Relaxed);
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+        });
+        let r =
+            crate::runner::run_seed(&cfg, &world, &dist, seed, observer, ctl, crate::runner::memory_limit(1));
+        done.store(true, Ordering::Relaxed);
+        r
+    })?;
+    if stop.load(Ordering::Relaxed) || user_stop.load(Ordering::Relaxed) {
+        return Ok(Verdict::Interrupted { steps: result.run.steps_done });
+    }
     let again = mmq_log::read_log(&path).map_err(|e| bad(e.to_string()))?;
-    Ok(match mmq_log::compare(log, &again) {
-        Ok(()) => Verdict::Identical { decisions: log.decisions.len(), poses: log.poses.len() },
+    let compared =
+        if truncated { mmq_log::compare_prefix(log, &again) } else { mmq_log::compare(log, &again) };
+    Ok(match compared {
+        Ok(()) => Verdict::Identical {
+            decisions: log.decisions.len(),
+            poses: log.poses.len(),
+            steps: result.run.steps_done,
+            truncated,
+        },
         Err(m) => Verdict::Differs(m),
     })
 }

@@ -290,6 +290,7 @@ fn learn<E: Env>(
             config_toml,
             env_kind: cfg.env.name(),
             facts,
+            start_pose: (cfg.env != crate::config::EnvKind::Grid).then(|| ch.env().pose()),
         };
         o.on_start(&run_info, s, ch.env().sim_time_s());
     }

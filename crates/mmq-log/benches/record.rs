@@ -147,6 +147,7 @@ fn record(run: &Run, path: &std::path::Path) -> u64 {
         config_toml: "",
         env_kind: run.kind,
         facts: &[],
+        start_pose: None,
     };
     rec.on_start(&info, run.s0, 0.0);
     for s in &run.steps {
@@ -231,6 +232,7 @@ fn robot(world: &World, how: Rec<'_>) -> u64 {
         config_toml: "",
         env_kind: "robot",
         facts: &facts,
+        start_pose: Some(ch.env().pose()),
     };
     if let Some(r) = rec.as_mut() {
         r.on_start(&info, s, ch.env().sim_time_s());

@@ -39,6 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         config_toml: &config,
         env_kind: "grid",
         facts: &facts,
+        start_pose: None,
     };
     rec.on_start(&info, s, 0.0);
     let trace = StepTrace::default();

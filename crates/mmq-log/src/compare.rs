@@ -1,6 +1,7 @@
 //! [`compare`]: do two logs tell the same run? Decisions, rewards (emitted and
 //! delivered) and poses are compared message by message, times included, bit for bit;
-//! the first difference in simulated time is reported with its topic, step and field.
+//! the first difference in simulated time is reported with its topic, step and field;
+//! [`compare_prefix`] does the same for a log that holds only the start of its run.
 //! (Re-running a simulation to get the second log is the lab's business.)
 
 use std::fmt;
@@ -80,6 +81,7 @@ fn compare_topic<T: Serialize>(
     topic: &str,
     a: &[Stamped<T>],
     b: &[Stamped<T>],
+    end: Option<u64>,
     step: impl Fn(&Stamped<T>) -> Option<u64>,
 ) -> Option<Mismatch> {
     let mismatch = |index: usize, s: &Stamped<T>, field: String, x: String, y: String| Mismatch {
@@ -103,6 +105,8 @@ fn compare_topic<T: Serialize>(
     let n = a.len().min(b.len());
     match (a.get(n), b.get(n)) {
         (Some(x), None) => Some(mismatch(n, x, "(message)".into(), "present".into(), "absent".into())),
+        // Past the end of a file that holds a prefix of its run: not compared.
+        (None, Some(y)) if end.is_some_and(|e| y.log_time >= e) => None,
         (None, Some(y)) => Some(mismatch(n, y, "(message)".into(), "absent".into(), "present".into())),
         _ => None,
     }
@@ -113,6 +117,30 @@ fn compare_topic<T: Serialize>(
 // Called once per verification: a flat, printable error is worth its size here.
 #[allow(clippy::result_large_err)]
 pub fn compare(a: &LogContents, b: &LogContents) -> Result<(), Mismatch> {
+    compare_to(a, b, None)
+}
+
+/// [`compare`] for a log `a` that holds only a prefix of its run (an interrupted write):
+/// `b`'s messages at or after `a`'s last compared message in simulated time are beyond
+/// what `a` recorded and are not compared; everything before must match as in
+/// [`compare`], including every message `a` holds.
+#[allow(clippy::result_large_err)]
+pub fn compare_prefix(a: &LogContents, b: &LogContents) -> Result<(), Mismatch> {
+    let end = [
+        a.decisions.last().map(|m| m.log_time),
+        a.emitted.last().map(|m| m.log_time),
+        a.delivered.last().map(|m| m.log_time),
+        a.poses.last().map(|p| p.log_time),
+    ]
+    .into_iter()
+    .flatten()
+    .max()
+    .unwrap_or(0);
+    compare_to(a, b, Some(end))
+}
+
+#[allow(clippy::result_large_err)]
+fn compare_to(a: &LogContents, b: &LogContents, end: Option<u64>) -> Result<(), Mismatch> {
     #[derive(Serialize)]
     struct P {
         x: f64,
@@ -131,10 +159,10 @@ pub fn compare(a: &LogContents, b: &LogContents) -> Result<(), Mismatch> {
         i.checked_sub(1).map(|i| a.decisions[i].msg.t)
     };
     let found = [
-        compare_topic(topics::DECISION, &a.decisions, &b.decisions, |s| Some(s.msg.t)),
-        compare_topic(topics::EMITTED, &a.emitted, &b.emitted, |s| Some(s.msg.t)),
-        compare_topic(topics::DELIVERED, &a.delivered, &b.delivered, |s| Some(s.msg.t)),
-        compare_topic(topics::POSE, &poses(a), &poses(b), |s| step_at(s.log_time)),
+        compare_topic(topics::DECISION, &a.decisions, &b.decisions, end, |s| Some(s.msg.t)),
+        compare_topic(topics::EMITTED, &a.emitted, &b.emitted, end, |s| Some(s.msg.t)),
+        compare_topic(topics::DELIVERED, &a.delivered, &b.delivered, end, |s| Some(s.msg.t)),
+        compare_topic(topics::POSE, &poses(a), &poses(b), end, |s| step_at(s.log_time)),
     ];
     match found.into_iter().flatten().min_by_key(|m| m.log_time) {
         None => Ok(()),

@@ -27,12 +27,12 @@ pub mod render;
 pub mod summary;
 mod writer;
 
-pub use compare::{Mismatch, compare};
+pub use compare::{Mismatch, compare, compare_prefix};
 pub use error::LogError;
 pub use live::{LiveConfig, LiveServer, LiveTap};
 pub use reader::{LogAttachment, LogContents, PoseStamp, ReadStop, Stamped, TopicInfo, read_log};
 pub use recorder::{
     McapRecorder, OutcomeHandle, RecordOutcome, RecordStats, RecorderConfig, StepWindow, TopicStats,
 };
-pub use render::{render, render_svg};
+pub use render::{render, render_png, render_svg};
 pub use summary::{LogSummary, summary};

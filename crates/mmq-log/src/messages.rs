@@ -478,6 +478,11 @@ pub struct Decision {
 }
 
 /// `mmq.RewardEmitted` on `/rl/reward/emitted`: a non-zero reward entering the channel.
+///
+/// A delay in steps is known in steps at once (`delay`, `due`); a delay in seconds is
+/// drawn in seconds (`delay_s`, `due_s`) and its steps are known only at delivery (the
+/// delivery's [`DeliveredPart::delay`]), so `delay` and `due` are absent then. Absent
+/// fields are left out of the JSON (Foxglove's JSON schema support has no `null`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RewardEmitted {
     /// Emission id (as in the ledger).
@@ -488,10 +493,22 @@ pub struct RewardEmitted {
     pub value: f64,
     /// `wall`, `goal` or `step`.
     pub cause: String,
-    /// Delay drawn, steps.
-    pub delay: u32,
-    /// Step of delivery.
-    pub due: u64,
+    /// Delay drawn, steps (a delay in steps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay: Option<u32>,
+    /// Step of delivery, `t + delay` (a delay in steps).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub due: Option<u64>,
+    /// Simulated time of the emission (the end of step `t`), seconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_emit_s: Option<f64>,
+    /// Delay drawn, seconds of simulated time (a delay in seconds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_s: Option<f64>,
+    /// When it falls due, `t_emit_s + delay_s`, seconds: it is delivered with the first
+    /// decision that ends at or after it (a delay in seconds).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub due_s: Option<f64>,
     /// Running total of emitted reward (this one included).
     pub total: f64,
 }
@@ -503,10 +520,20 @@ pub struct DeliveredPart {
     pub id: u64,
     /// Step of the emission.
     pub t_emit: u64,
-    /// Its delay, steps.
+    /// Its delay, steps (delivery step − emission step).
     pub delay: u32,
     /// Its value.
     pub value: f64,
+    /// Simulated time of the emission, seconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub t_emit_s: Option<f64>,
+    /// Its delay in seconds: from the emission to the end of the delivering step.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub delay_s: Option<f64>,
+    /// The delay drawn, seconds (a delay in seconds: `delay_s` is it plus the wait for
+    /// the end of the delivering decision).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub drawn_s: Option<f64>,
 }
 
 /// `mmq.RewardDelivered` on `/rl/reward/delivered`: what the learner received at a step.

@@ -276,6 +276,8 @@ pub struct McapRecorder {
     file: bool,
     /// The live view the messages also go to.
     live: Option<LiveTap>,
+    /// The last pose sample went live (its estimate follows it).
+    live_pose: bool,
 }
 
 /// How a recording ended, as seen through an [`OutcomeHandle`].
@@ -376,6 +378,7 @@ impl McapRecorder {
             last_flush: Instant::now(),
             outcome: OutcomeHandle::default(),
             live: None,
+            live_pose: false,
         }
     }
 
@@ -443,7 +446,11 @@ impl McapRecorder {
     /// Writes one message, whose bytes `write` appends.
     fn emit(&mut self, ch: Ch, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
         let i = ch as usize;
-        if let Some(live) = self.live.as_mut().filter(|l| l.wants(i)) {
+        // The estimate's `/tf` and pose go live with their pose sample, or not at all.
+        let live_ok = !matches!(ch, Ch::Tf | Ch::PoseEstimate) || self.live_pose;
+        if let Some(live) = self.live.as_mut().filter(|_| live_ok)
+            && live.wants(i)
+        {
             let bytes = live.send(i, log_time, write);
             let r = match self.writer.as_mut() {
                 Some(w) => w.message(self.channel_ids[i], log_time, |out| out.extend_from_slice(bytes)),
@@ -471,8 +478,21 @@ impl McapRecorder {
         });
     }
 
+    /// Writes a scene: bytes serialized once and republished unchanged during the run.
     fn write_bytes(&mut self, ch: Ch, log_time: u64, bytes: &[u8]) {
-        self.emit(ch, log_time, |out| out.extend_from_slice(bytes));
+        let i = ch as usize;
+        if let Some(live) = self.live.as_mut() {
+            live.send_unchanged(i, log_time, bytes);
+            if !self.file {
+                self.topics[i].count += 1;
+                return;
+            }
+        }
+        let Some(w) = self.writer.as_mut() else { return };
+        match w.message(self.channel_ids[i], log_time, |out| out.extend_from_slice(bytes)) {
+            Ok(()) => self.topics[i].count += 1,
+            Err(e) => self.fail(e),
+        }
     }
 
     /// Takes the per-topic digests from the writer (which computes them as it writes the
@@ -504,7 +524,10 @@ impl McapRecorder {
     fn write_pose(&mut self, log_time: u64, x: f64, y: f64, theta: f64) {
         let (tf, pose) = (Ch::Tf as usize, Ch::Pose as usize);
         if let Some(live) = self.live.as_mut() {
-            live.pose(tf, pose, log_time, x, y, theta);
+            self.live_pose = live.pose_due(log_time);
+            if self.live_pose {
+                live.pose(tf, pose, log_time, x, y, theta);
+            }
             if !self.file {
                 self.topics[tf].count += 1;
                 self.topics[pose].count += 1;

@@ -34,6 +34,7 @@ fn recording() -> &'static (Vec<u8>, LogContents) {
             config_toml: "",
             env_kind: "grid",
             facts: &[],
+            start_pose: None,
         };
         rec.on_start(&info, s, 0.0);
         let trace = StepTrace::default();

@@ -41,8 +41,16 @@ pub fn read_recording_columns<'py>(
     em.set_item("id", col(py, e.iter().map(|m| m.msg.id).collect()))?;
     em.set_item("t", col(py, e.iter().map(|m| m.msg.t).collect()))?;
     em.set_item("value", col(py, e.iter().map(|m| m.msg.value).collect()))?;
-    em.set_item("delay", col(py, e.iter().map(|m| i64::from(m.msg.delay)).collect()))?;
-    em.set_item("due", col(py, e.iter().map(|m| m.msg.due).collect()))?;
+    // A delay in seconds has no steps at emission: -1 there; its times in seconds are
+    // NaN for a delay in steps.
+    em.set_item("delay", col(py, e.iter().map(|m| m.msg.delay.map_or(-1, i64::from)).collect()))?;
+    em.set_item("due", col(py, e.iter().map(|m| m.msg.due.map_or(-1, |d| d as i64)).collect()))?;
+    let secs = |f: fn(&mmq_log::messages::RewardEmitted) -> Option<f64>| -> Vec<f64> {
+        e.iter().map(|m| f(&m.msg).unwrap_or(f64::NAN)).collect()
+    };
+    em.set_item("t_emit_s", col(py, secs(|m| m.t_emit_s)))?;
+    em.set_item("delay_s", col(py, secs(|m| m.delay_s)))?;
+    em.set_item("due_s", col(py, secs(|m| m.due_s)))?;
     em.set_item("cause", e.iter().map(|m| m.msg.cause.clone()).collect::<Vec<_>>())?;
     out.set_item("emitted", em)?;
 

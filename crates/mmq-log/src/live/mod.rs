@@ -10,23 +10,39 @@
 //! - With no client connected the recorder writes nothing live (the run is not slowed);
 //!   with one, [`LiveConfig::speed`] paces the run to that many seconds of simulated time
 //!   per second of wall-clock time.
+//! - What a client gets is thinned for watching, the recording never: poses at most every
+//!   [`LIVE_POSE_PERIOD_NS`] of simulated time (10 Hz) and, like every other topic but
+//!   contacts and notes, and like the time updates, at most once per [`LIVE_MIN_GAP`] of
+//!   wall-clock time (30 a second). A run watched at real time loses nothing; a run
+//!   watched unpaced costs a bounded amount per second instead of one socket write per
+//!   message (and never overflows the client's queue, which would disconnect it).
 //!
 //! [`replay`] serves a recorded file instead, with playback control.
 
 use std::collections::HashMap;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, Weak};
 use std::time::{Duration, Instant};
 
 use foxglove::websocket::{Capability, ChannelView, Client, ServerListener};
 use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema, WebSocketServerHandle};
 
 use crate::error::LogError;
-use crate::messages::{CHANNELS, LATCHED, LOG_CHANNEL};
+use crate::messages::{CHANNELS, LATCHED, LOG_CHANNEL, topics};
 use crate::writer::PoseJson;
 
 pub mod replay;
+
+/// Simulated time between two poses sent to live clients (10 Hz), whatever rate the
+/// recording keeps (`--record-rate 0` keeps every physics step).
+pub const LIVE_POSE_PERIOD_NS: u64 = 100_000_000;
+
+/// Wall-clock time between two messages of one topic (poses: two pose samples; and two
+/// time updates) sent to live clients: at most 30 a second, about what the app draws.
+/// Contacts (their starts and ends pair up) and notes are never thinned; latched topics
+/// always keep their last message for new subscribers.
+pub const LIVE_MIN_GAP: Duration = Duration::from_millis(33);
 
 /// The default address of the live view: loopback only, Foxglove's usual port.
 pub const DEFAULT_ADDR: SocketAddr = SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 8765);
@@ -79,7 +95,34 @@ struct Shared {
     /// Last message of each latched slot: (log time, bytes).
     latched: Mutex<HashMap<usize, (u64, Vec<u8>)>>,
     latched_slot: Vec<bool>,
+    /// Slots thinned per topic to one message per [`LIVE_MIN_GAP`] (poses are thinned
+    /// per sample instead; contacts and notes not at all).
+    gated_slot: Vec<bool>,
     clients: AtomicUsize,
+    /// A coarse wall clock for the thinning, milliseconds since the server started: set
+    /// by a thread of its own every [`CLOCK_TICK`] while clients are connected (reading
+    /// the system clock for every message cost more than the message on a busy machine).
+    clock_ms: AtomicU64,
+    /// The clock's thread runs while this is set.
+    ticking: AtomicBool,
+}
+
+/// Resolution of the thinning's clock while clients are connected (without: 10×).
+const CLOCK_TICK: Duration = Duration::from_millis(4);
+
+/// Keeps `shared.clock_ms` up to date until the server stops (or is dropped).
+fn run_clock(shared: Weak<Shared>) {
+    let t0 = Instant::now();
+    loop {
+        let Some(s) = shared.upgrade() else { return };
+        if !s.ticking.load(Ordering::Relaxed) {
+            return;
+        }
+        s.clock_ms.store(t0.elapsed().as_millis() as u64, Ordering::Relaxed);
+        let idle = s.clients.load(Ordering::Relaxed) == 0;
+        drop(s);
+        std::thread::sleep(if idle { 10 * CLOCK_TICK } else { CLOCK_TICK });
+    }
 }
 
 impl Shared {
@@ -87,6 +130,8 @@ impl Shared {
         let mut channels = Vec::new();
         let mut slots = HashMap::new();
         let mut latched_slot = Vec::new();
+        let mut gated_slot = Vec::new();
+        let per_sample = [topics::TF, topics::POSE, topics::POSE_ESTIMATE, topics::CONTACT, topics::LOG];
         for (topic, schema, text) in CHANNELS.iter().chain([&LOG_CHANNEL]) {
             let ch = ctx
                 .channel_builder(*topic)
@@ -96,6 +141,7 @@ impl Shared {
                 .map_err(|e| format!("cannot create the channel {topic}: {e}"))?;
             slots.insert(ch.id(), channels.len());
             latched_slot.push(LATCHED.contains(topic));
+            gated_slot.push(!per_sample.contains(topic));
             channels.push(ch);
         }
         Ok(Self {
@@ -104,7 +150,10 @@ impl Shared {
             slots,
             latched: Mutex::new(HashMap::new()),
             latched_slot,
+            gated_slot,
             clients: AtomicUsize::new(0),
+            clock_ms: AtomicU64::new(0),
+            ticking: AtomicBool::new(true),
         })
     }
 }
@@ -193,6 +242,10 @@ impl LiveServer {
         );
         let listener = Arc::new(Listener(Arc::clone(&shared)));
         let handle = start_server(&ctx, config.addr, &config.name, vec![Capability::Time], listener, None)?;
+        let weak = Arc::downgrade(&shared);
+        std::thread::Builder::new().name("mmq-live-clock".into()).spawn(move || run_clock(weak)).map_err(
+            |e| LogError::LiveServer { addr: config.addr, message: format!("cannot start a thread: {e}") },
+        )?;
         let addr = SocketAddr::new(config.addr.ip(), handle.port());
         Ok(Self { handle: Arc::new(Mutex::new(Some(handle))), shared, addr, speed: config.speed })
     }
@@ -217,11 +270,16 @@ impl LiveServer {
             speed: self.speed,
             anchor: None,
             last_time_sent: None,
+            last_time_wall: None,
+            next_pose_ns: 0,
+            last_pose_wall: None,
+            last_sent: vec![None; self.shared.channels.len()],
         }
     }
 
     /// Stops the server: clients are disconnected, the port is freed. Waits for it.
     pub fn stop(self) {
+        self.shared.ticking.store(false, Ordering::Relaxed);
         let h = self.handle.lock().ok().and_then(|mut h| h.take());
         if let Some(h) = h {
             h.stop().wait_blocking();
@@ -251,6 +309,24 @@ pub struct LiveTap {
     /// Pacing reference: (wall clock, simulated ns) when pacing started.
     anchor: Option<(Instant, u64)>,
     last_time_sent: Option<u64>,
+    /// Server clock (ms) of the last time update sent.
+    last_time_wall: Option<u64>,
+    /// Simulated time from which the next pose may be sent, ns.
+    next_pose_ns: u64,
+    /// Server clock (ms) of the last pose sent.
+    last_pose_wall: Option<u64>,
+    /// Server clock (ms) of the last message sent, per slot.
+    last_sent: Vec<Option<u64>>,
+}
+
+/// Whether [`LIVE_MIN_GAP`] has passed from `last` to `now_ms` (then `last` becomes
+/// `now_ms`); times in milliseconds of the server's clock.
+fn gap_passed(last: &mut Option<u64>, now_ms: u64) -> bool {
+    if last.is_some_and(|t| now_ms.saturating_sub(t) < LIVE_MIN_GAP.as_millis() as u64) {
+        return false;
+    }
+    *last = Some(now_ms);
+    true
 }
 
 impl std::fmt::Debug for LiveTap {
@@ -266,33 +342,105 @@ const MAX_LAG: Duration = Duration::from_millis(250);
 const PACE_SLICE: Duration = Duration::from_millis(20);
 
 impl LiveTap {
+    /// The server's coarse clock, ms.
+    fn now_ms(&self) -> u64 {
+        self.shared.clock_ms.load(Ordering::Relaxed)
+    }
+
     /// A client is connected.
     pub(crate) fn has_clients(&self) -> bool {
         self.shared.clients.load(Ordering::Relaxed) > 0
     }
 
-    /// The message of `slot` is worth serializing: it is latched, or someone listens.
-    pub(crate) fn wants(&self, slot: usize) -> bool {
-        self.shared.latched_slot.get(slot).copied().unwrap_or(false)
-            || self.shared.channels.get(slot).is_some_and(|c| c.has_sinks())
+    /// The message of `slot` is worth serializing: it is latched (kept for later
+    /// subscribers), or someone listens and the topic's thinning lets it through (which
+    /// counts it as sent: call [`Self::send`] next).
+    pub(crate) fn wants(&mut self, slot: usize) -> bool {
+        if self.shared.latched_slot.get(slot).copied().unwrap_or(false) {
+            return true;
+        }
+        if !self.shared.channels.get(slot).is_some_and(|c| c.has_sinks()) {
+            return false;
+        }
+        if !self.shared.gated_slot[slot] {
+            return true;
+        }
+        let now = self.now_ms();
+        gap_passed(&mut self.last_sent[slot], now)
     }
 
-    /// Serializes a message with `write` into the tap's buffer, sends it, and returns
-    /// its bytes.
+    /// Serializes a message with `write` into the tap's buffer, sends it (a latched
+    /// message: keeps it, and sends it when its topic's thinning lets it through), and
+    /// returns its bytes.
     pub(crate) fn send(&mut self, slot: usize, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) -> &[u8] {
         self.scratch.clear();
         write(&mut self.scratch);
-        if self.shared.latched_slot[slot]
-            && let Ok(mut l) = self.shared.latched.lock()
-        {
-            l.insert(slot, (log_time, self.scratch.clone()));
-        }
         let ch = &self.shared.channels[slot];
-        if ch.has_sinks() {
+        let mut sinks = ch.has_sinks();
+        if self.shared.latched_slot[slot] {
+            if let Ok(mut l) = self.shared.latched.lock() {
+                match l.get_mut(&slot) {
+                    // The scenes are republished unchanged: keep the bytes, move the time.
+                    Some((t, b)) if *b == self.scratch => *t = log_time,
+                    Some((t, b)) => {
+                        *t = log_time;
+                        b.clear();
+                        b.extend_from_slice(&self.scratch);
+                    }
+                    None => {
+                        l.insert(slot, (log_time, self.scratch.clone()));
+                    }
+                }
+            }
+            let now = self.now_ms();
+            sinks = sinks && gap_passed(&mut self.last_sent[slot], now);
+        }
+        if sinks {
             ch.log_with_meta(&self.scratch, PartialMetadata { log_time: Some(log_time) });
             self.pace(log_time);
         }
         &self.scratch
+    }
+
+    /// Sends a message serialized once and republished unchanged during the run (the
+    /// scenes): a latched slot keeps its first bytes and only moves their time (no copy,
+    /// no comparison: the arena is republished after every goal); sent when someone
+    /// listens and the topic's thinning lets it through.
+    pub(crate) fn send_unchanged(&mut self, slot: usize, log_time: u64, bytes: &[u8]) {
+        if self.shared.latched_slot[slot]
+            && let Ok(mut l) = self.shared.latched.lock()
+        {
+            match l.get_mut(&slot) {
+                Some((t, _)) => *t = log_time,
+                None => {
+                    l.insert(slot, (log_time, bytes.to_vec()));
+                }
+            }
+        }
+        let ch = &self.shared.channels[slot];
+        if !ch.has_sinks() {
+            return;
+        }
+        let now = self.now_ms();
+        if gap_passed(&mut self.last_sent[slot], now) {
+            ch.log_with_meta(bytes, PartialMetadata { log_time: Some(log_time) });
+            self.pace(log_time);
+        }
+    }
+
+    /// Whether the pose sample at `log_time` goes to the clients (with its estimate):
+    /// someone listens, [`LIVE_POSE_PERIOD_NS`] of simulated time and [`LIVE_MIN_GAP`] of
+    /// wall-clock time have passed since the last one sent.
+    pub(crate) fn pose_due(&mut self, log_time: u64) -> bool {
+        if !self.has_clients() || log_time < self.next_pose_ns {
+            return false;
+        }
+        let now = self.now_ms();
+        if !gap_passed(&mut self.last_pose_wall, now) {
+            return false;
+        }
+        self.next_pose_ns = (log_time / LIVE_POSE_PERIOD_NS + 1) * LIVE_POSE_PERIOD_NS;
+        true
     }
 
     /// Sends a pose on `/tf` (slot `tf`) and `/robot/pose` (slot `pose`), with the
@@ -318,9 +466,22 @@ impl LiveTap {
         self.pace(log_time);
     }
 
-    /// The end of a step at simulated time `log_time`: advertises the time.
+    /// The end of a step at simulated time `log_time`: paces the run and advertises the
+    /// time (at most once
+    /// per [`LIVE_MIN_GAP`]: time updates go on the clients' control queue, which
+    /// disconnects a client when it overflows).
     pub(crate) fn step_end(&mut self, log_time: u64) {
-        if !self.has_clients() || self.last_time_sent == Some(log_time) {
+        if !self.has_clients() {
+            return;
+        }
+        // Paced at every step, not only at the messages sent: thinned, they can be far
+        // apart.
+        self.pace(log_time);
+        if self.last_time_sent == Some(log_time) {
+            return;
+        }
+        let now = self.now_ms();
+        if !gap_passed(&mut self.last_time_wall, now) {
             return;
         }
         self.last_time_sent = Some(log_time);

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mmq_core::{Event, Move, Observer, PoseSample, RunInfo, State, StepRecord};
+use mmq_core::{Emission, Event, Move, Observer, PoseSample, RunInfo, State, StepRecord};
 
 use super::scenes::{ESTIMATE_FRAME, arena_scene, estimate_scene, heatmap, robot_radius, robot_scene};
 use super::{CHUNK_SIZE, Ch, McapRecorder, RecorderConfig, Run, ns};
@@ -105,9 +105,18 @@ impl Observer for McapRecorder {
             estimates_seen: false,
         });
         self.write_scenes(start_ns);
-        self.heading = 0.0;
-        if grid || initial_state < info.world.num_cells() {
-            self.write_cell_pose(start_ns, initial_state);
+        // The first pose: the robot's own (its true heading), else the start cell's centre.
+        match info.start_pose.filter(|p| !grid && p.x.is_finite() && p.y.is_finite() && p.theta.is_finite()) {
+            Some(p) => {
+                self.heading = p.theta;
+                self.write_pose(start_ns, p.x, p.y, p.theta);
+            }
+            None => {
+                self.heading = 0.0;
+                if grid || initial_state < info.world.num_cells() {
+                    self.write_cell_pose(start_ns, initial_state);
+                }
+            }
         }
         self.prev_recorded = true;
         self.note(
@@ -135,13 +144,17 @@ impl Observer for McapRecorder {
             if grid { (t * period, (t + 1) * period) } else { (ns(self.step_start_s), ns(end_s)) };
         // Running figures are kept over every step, recorded or not.
         let emission = (rec.emitted != 0.0).then(|| {
-            let (id, delay) = match rec.emission() {
-                Some(e) => (e.id, e.delay),
-                None => (self.next_emission_id, rec.delay.unwrap_or(0)),
+            let (id, delay, times) = match rec.emission() {
+                Some(e) => (e.id, e.delay, Some((e.t_emit_s, e.drawn_s))),
+                None => (self.next_emission_id, rec.delay.unwrap_or(0), None),
             };
             self.next_emission_id = id + 1;
             self.emitted_total += rec.emitted;
-            (id, delay)
+            // A delay in seconds has no steps yet (they are known at delivery).
+            let delay = (delay != Emission::PENDING).then_some(delay);
+            let t_emit_s = times.map_or(rec.sim_time_s, |(t, _)| t);
+            let drawn_s = times.map(|(_, d)| d).filter(|d| d.is_finite());
+            (id, delay, t_emit_s, drawn_s)
         });
         self.delivered_total += rec.delivered;
         let recorded = self.config.window.is_none_or(|w| w.contains(t)) && self.active();
@@ -166,7 +179,7 @@ impl Observer for McapRecorder {
             };
             self.write(Ch::Decision, start_ns, &decision);
             self.write_motion(rec, grid, end_ns);
-            if let Some((id, delay)) = emission {
+            if let Some((id, delay, t_emit_s, drawn_s)) = emission {
                 let cause = match rec.event {
                     Event::WallBump => "wall",
                     Event::Teleport => "goal",
@@ -178,7 +191,10 @@ impl Observer for McapRecorder {
                     value: rec.emitted,
                     cause: cause.into(),
                     delay,
-                    due: t + u64::from(delay),
+                    due: delay.map(|d| t + u64::from(d)),
+                    t_emit_s: Some(t_emit_s).filter(|x| x.is_finite()),
+                    delay_s: drawn_s,
+                    due_s: drawn_s.map(|d| t_emit_s + d),
                     total: self.emitted_total,
                 };
                 self.write(Ch::Emitted, end_ns, &msg);
@@ -195,6 +211,9 @@ impl Observer for McapRecorder {
                                 t_emit: e.t_emit,
                                 delay: e.delay,
                                 value: e.value,
+                                t_emit_s: Some(e.t_emit_s).filter(|x| x.is_finite()),
+                                delay_s: Some(e.delay_s()).filter(|x| x.is_finite()),
+                                drawn_s: Some(e.drawn_s).filter(|x| x.is_finite()),
                             })
                             .collect()
                     })

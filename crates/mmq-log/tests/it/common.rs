@@ -64,6 +64,7 @@ pub fn run_grid(
         config_toml: CONFIG_TOML,
         env_kind: "grid",
         facts: &facts,
+        start_pose: None,
     };
     obs.on_start(&info, s, ch.env().sim_time_s());
     let trace = StepTrace::default();
@@ -146,6 +147,7 @@ pub fn run_robot_with(
         config_toml: CONFIG_TOML,
         env_kind: "robot",
         facts: &facts,
+        start_pose: None,
     };
     let mut s = world.respawn;
     obs.on_start(&info, s, 0.0);

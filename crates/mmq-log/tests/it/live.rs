@@ -370,3 +370,72 @@ fn a_served_file_plays_pauses_and_seeks() {
     let (closed, _) = c.until(60.0, |m, _| matches!(m, In::Closed));
     assert!(closed);
 }
+
+/// A client watching an unpaced run (`--live-speed 0`) changes nothing in the recording,
+/// byte for byte, and gets the poses thinned: at most one per 100 ms of simulated time
+/// and one per 33 ms of wall-clock time, where the file keeps every sample.
+#[test]
+fn a_watched_recording_is_the_recording_and_live_poses_are_thinned() {
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, watched) = (dir.path().join("plain.mcap"), dir.path().join("watched.mcap"));
+    let world = common::world("paper-9x9");
+    // Every pose sample recorded (60 per step), so the live view has something to thin.
+    let config = |p: &std::path::Path| {
+        let mut c = RecorderConfig::new(p);
+        c.pose_rate_hz = 0.0;
+        c
+    };
+    let steps = 400;
+    let mut rec = McapRecorder::create(config(&plain)).unwrap();
+    common::run_robot_with(&world, &mut rec, steps, 3, true);
+    assert!(rec.take_error().is_none());
+    let server = LiveServer::start(&local(0.0)).unwrap();
+    let tap = server.tap();
+    let (started, go) = (Arc::new(AtomicBool::new(false)), Arc::new(AtomicBool::new(false)));
+    let run = {
+        let (started, go, path, world) = (started.clone(), go.clone(), watched.clone(), world.clone());
+        std::thread::spawn(move || {
+            let rec = McapRecorder::create(config(&path)).unwrap().with_live(tap);
+            let mut gate = Gate { rec, started, go };
+            let t0 = Instant::now();
+            common::run_robot_with(&world, &mut gate, steps, 3, true);
+            (t0.elapsed(), gate.rec.take_error().is_none())
+        })
+    };
+    wait_for(&started);
+    let mut c = Client::connect(server.addr());
+    c.subscribe(&[topics::TF, topics::POSE, topics::POSE_ESTIMATE, topics::DECISION, topics::ARENA]);
+    // The arena comes on subscription (latched): the subscriptions are in place.
+    let (ok, _) = c.until(60.0, |_, t| t == Some(topics::ARENA));
+    assert!(ok, "no arena");
+    go.store(true, Ordering::SeqCst);
+    let mut got = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !run.is_finished() && Instant::now() < deadline {
+        got.extend(c.until(0.2, |_, _| false).1);
+    }
+    got.extend(c.until(1.0, |_, _| false).1);
+    let (elapsed, ok) = run.join().unwrap();
+    assert!(ok, "the watched recording failed");
+    server.stop();
+    assert!(
+        std::fs::read(&plain).unwrap() == std::fs::read(&watched).unwrap(),
+        "the recording differs while a client watches"
+    );
+    let times = |topic: &str| -> Vec<u64> {
+        got.iter().filter(|(t, _, _)| t == topic).map(|(_, time, _)| *time).collect()
+    };
+    let (poses, decisions) = (times(topics::POSE), times(topics::DECISION));
+    assert!(
+        !poses.is_empty() && !decisions.is_empty(),
+        "{} poses, {} decisions",
+        poses.len(),
+        decisions.len()
+    );
+    assert!(poses.windows(2).all(|w| w[1] >= w[0] + 100_000_000), "poses closer than 100 ms: {poses:?}");
+    let most = elapsed.as_secs_f64() / 0.033 + 2.0;
+    assert!(poses.len() as f64 <= most, "{} poses in {elapsed:?}", poses.len());
+    assert!(decisions.len() as f64 <= most, "{} decisions in {elapsed:?}", decisions.len());
+    // Each estimate goes with its pose sample.
+    assert_eq!(times(topics::POSE_ESTIMATE), poses);
+}

@@ -29,6 +29,7 @@ fn a_recorded_robot_run_reads_back_in_order() {
         config_toml: common::CONFIG_TOML,
         env_kind: "robot",
         facts: &facts,
+        start_pose: Some(ch.env().pose()),
     };
     rec.on_start(&info, s, ch.env().sim_time_s());
     let mut trace = StepTrace::default();
@@ -87,4 +88,40 @@ fn a_recorded_robot_run_reads_back_in_order() {
         }
         None => println!("note: Python validation skipped (no Python with mcap and jsonschema)"),
     }
+}
+
+/// The first pose of a robot recording carries the robot's true start pose: the paper's
+/// moves start it facing north (yaw π/2), not the recorder's default heading 0.
+#[test]
+fn the_first_pose_carries_the_start_heading() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("start.mcap");
+    let world = common::world("paper-3x3");
+    let env = RobotEnv::new(&world, RobotConfig::from_world(&world).unwrap()).unwrap();
+    let mut ch = DelayedReward::new(env, &DelayDist::parse("poisson:2").unwrap(), true);
+    let mut rec = McapRecorder::create(RecorderConfig::new(&path)).unwrap();
+    ch.env_mut().set_trace(rec.trace_period_s());
+    let s = ch.reset(5, 6, Start::World).unwrap();
+    let start = ch.env().pose();
+    // (rapier keeps angles in f32.)
+    assert!((start.theta - std::f64::consts::FRAC_PI_2).abs() < 1e-6, "the paper's moves start facing north");
+    let names = ch.env().action_names();
+    let info = RunInfo {
+        world: &world,
+        seed: 5,
+        learner: "scripted",
+        action_names: &names,
+        config_toml: common::CONFIG_TOML,
+        env_kind: "robot",
+        facts: &[],
+        start_pose: Some(start),
+    };
+    rec.on_start(&info, s, ch.env().sim_time_s());
+    rec.on_finish(0, true);
+    assert!(rec.take_error().is_none());
+    let log = read_log(&path).unwrap();
+    let first = log.poses.first().expect("the start pose is recorded");
+    assert_eq!(first.log_time, 0);
+    assert!((first.theta - start.theta).abs() < 1e-12, "{first:?} vs {start:?}");
+    assert!((first.x - start.x).abs() < 1e-12 && (first.y - start.y).abs() < 1e-12, "{first:?}");
 }

@@ -58,8 +58,10 @@ fn grid_run_reads_back_equal() {
     for (i, (e, s)) in log.emitted.iter().zip(&emitted).enumerate() {
         total += s.emitted;
         let m = &e.msg;
-        assert_eq!((m.id, m.t, m.value, m.delay), (i as u64, s.t, s.emitted, s.delay.unwrap()));
-        assert_eq!(m.due, s.t + u64::from(m.delay));
+        assert_eq!((m.id, m.t, m.value, m.delay), (i as u64, s.t, s.emitted, s.delay));
+        assert_eq!(m.due, Some(s.t + u64::from(s.delay.unwrap())));
+        // A delay in steps: the emission's time, no delay drawn in seconds.
+        assert_eq!((m.t_emit_s, m.delay_s, m.due_s), (Some(s.sim_time_s), None, None));
         assert_eq!(m.total, total);
         assert_eq!(
             m.cause,
@@ -82,8 +84,14 @@ fn grid_run_reads_back_equal() {
         let mut sum = 0.0;
         for p in &m.parts {
             let e = &log.emitted[p.id as usize].msg;
-            assert_eq!((p.t_emit, p.delay, p.value), (e.t, e.delay, e.value));
-            assert_eq!(e.due, m.t);
+            assert_eq!((p.t_emit, Some(p.delay), p.value), (e.t, e.delay, e.value));
+            assert_eq!(e.due, Some(m.t));
+            // In seconds: emitted at the end of step t_emit, delivered at the end of step t
+            // (0.1 s per step), nothing drawn in seconds.
+            assert_eq!(p.t_emit_s, e.t_emit_s);
+            let delay_s = p.delay_s.unwrap();
+            assert!((delay_s - 0.1 * f64::from(p.delay)).abs() < 1e-9, "{delay_s} s for {} steps", p.delay);
+            assert_eq!(p.drawn_s, None);
             sum += p.value;
         }
         assert_eq!(sum, m.sum);
