@@ -3,18 +3,50 @@
 
 use nalgebra::{DMatrix, DVector};
 
-/// The symmetric Gram matrix G of the reward fit over the compact pairs 0..n, dense.
+/// The symmetric Gram matrix G of the reward fit over the compact pairs 0..n, sparse:
+/// each row holds its non-zero entries in column order (compressed sparse rows).
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct Gram {
     n: usize,
-    g: Vec<f64>,
+    /// Row i's entries are at ptr[i]..ptr[i + 1].
+    ptr: Vec<usize>,
+    col: Vec<u32>,
+    val: Vec<f64>,
 }
 
 impl Gram {
-    /// An `n`×`n` matrix from its entries in row-major order.
+    /// An `n`×`n` matrix from its entries in row-major order (its non-zero entries kept).
+    #[cfg(test)]
     pub(crate) fn from_dense(n: usize, g: Vec<f64>) -> Self {
         debug_assert_eq!(g.len(), n * n);
-        Self { n, g }
+        let mut rows = Vec::with_capacity(n);
+        for i in 0..n {
+            rows.push((0..n).filter(|&j| g[i * n + j] != 0.0).map(|j| (j as u32, g[i * n + j])).collect());
+        }
+        Self::from_rows(n, rows)
+    }
+
+    /// From each row's (column, value) entries in column order.
+    #[cfg(test)]
+    fn from_rows(n: usize, rows: Vec<Vec<(u32, f64)>>) -> Self {
+        let mut ptr = Vec::with_capacity(n + 1);
+        ptr.push(0);
+        let nnz = rows.iter().map(Vec::len).sum();
+        let (mut col, mut val) = (Vec::with_capacity(nnz), Vec::with_capacity(nnz));
+        for row in rows {
+            for (c, v) in row {
+                col.push(c);
+                val.push(v);
+            }
+            ptr.push(col.len());
+        }
+        Self { n, ptr, col, val }
+    }
+
+    /// From compressed rows: `ptr` (n + 1 offsets), columns and values.
+    pub(crate) fn from_parts(n: usize, ptr: Vec<usize>, col: Vec<u32>, val: Vec<f64>) -> Self {
+        debug_assert!(ptr.len() == n + 1 && col.len() == val.len());
+        Self { n, ptr, col, val }
     }
 
     /// The number of rows (compact pairs).
@@ -22,29 +54,44 @@ impl Gram {
         self.n
     }
 
+    /// Position of (i, j) among the stored entries.
+    #[inline]
+    fn find(&self, i: usize, j: usize) -> Result<usize, usize> {
+        let (lo, hi) = (self.ptr[i], self.ptr[i + 1]);
+        self.col[lo..hi].binary_search(&(j as u32)).map(|p| lo + p).map_err(|p| lo + p)
+    }
+
     /// G(i, j).
     #[inline]
     pub(crate) fn get(&self, i: usize, j: usize) -> f64 {
-        self.g[i * self.n + j]
+        self.find(i, j).map_or(0.0, |p| self.val[p])
     }
 
     /// G(i, j) −= v.
-    #[inline]
     pub(crate) fn sub(&mut self, i: usize, j: usize, v: f64) {
-        self.g[i * self.n + j] -= v;
+        match self.find(i, j) {
+            Ok(p) => self.val[p] -= v,
+            Err(p) => {
+                self.col.insert(p, j as u32);
+                self.val.insert(p, -v);
+                self.ptr[i + 1..].iter_mut().for_each(|x| *x += 1);
+            }
+        }
     }
 
     /// Σ_j G(i, j) x(j), summed in column order.
     #[inline]
     pub(crate) fn row_dot(&self, i: usize, x: &[f64]) -> f64 {
-        self.g[i * self.n..(i + 1) * self.n].iter().zip(x).map(|(a, b)| a * b).sum()
+        let (lo, hi) = (self.ptr[i], self.ptr[i + 1]);
+        self.col[lo..hi].iter().zip(&self.val[lo..hi]).map(|(&c, v)| v * x[c as usize]).sum()
     }
 
     /// y += d · G(i, ·).
     #[inline]
     pub(crate) fn add_row(&self, i: usize, d: f64, y: &mut [f64]) {
-        for (yv, &gv) in y.iter_mut().zip(&self.g[i * self.n..(i + 1) * self.n]) {
-            *yv += gv * d;
+        let (lo, hi) = (self.ptr[i], self.ptr[i + 1]);
+        for (&c, &v) in self.col[lo..hi].iter().zip(&self.val[lo..hi]) {
+            y[c as usize] += v * d;
         }
     }
 }

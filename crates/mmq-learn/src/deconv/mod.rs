@@ -34,9 +34,12 @@
 //! Σ_t y_{t−k} y_{t−k'} = Rᵀ C_{|k−k'|} R,   Σ_t r_t y_{t−k} = Σ_x R(x) B_k(x)        (y_u = R(x_u))
 //! ```
 //!
-//! up to edge terms of the last K steps. Memory is (K + 1)·X² counts for the X pairs
-//! visited so far. p̂ starts uniform on 0..=K; when the learner is told the pmf, only R
-//! is fitted.
+//! up to edge terms of the last K steps. The counts are sparse ([`counts`]): only the
+//! (pair, pair, lag) triples that occurred are kept, at most K + 1 new ones per step, so
+//! memory grows with the steps taken (and far slower once the agent repeats itself), not
+//! with the square of the pairs; G has an entry only for pairs that came within K steps
+//! of each other. B is (K + 1) sums per pair visited. p̂ starts uniform on 0..=K; when
+//! the learner is told the pmf, only R is fitted.
 //!
 //! R(x) is a sum of features: one per pair, and one per *group* of pairs that share a
 //! reward — with `successor_groups`, the actions of a state that have only ever led to
@@ -45,11 +48,13 @@
 //! so of two explanations that fit alike the coarser wins; that is what credits the
 //! goal's reward to the goal rather than to the move into it one step earlier.
 
+mod counts;
 mod linalg;
 mod pmf_fit;
 mod reward_fit;
 mod stats;
 
+pub(crate) use counts::MAX_PAIRS;
 pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 
 use crate::Table;
@@ -182,6 +187,18 @@ impl Deconvolver {
     /// A deconvolver over `num_states` × `num_actions` pairs (pair id s·|A| + a); p̂
     /// uniform on 0..=K unless told.
     pub fn new(cfg: DeconvConfig, num_states: usize, num_actions: usize) -> Self {
+        Self::with_counts(cfg, num_states, num_actions, true)
+    }
+
+    /// [`Self::new`]; `counts`: whether it keeps its own co-occurrence counts (false for
+    /// a deconvolver refitted only with [`Self::refit_all`] after one that keeps them and
+    /// sees the same pairs).
+    pub(crate) fn with_counts(
+        cfg: DeconvConfig,
+        num_states: usize,
+        num_actions: usize,
+        counts: bool,
+    ) -> Self {
         let num_pairs = num_states * num_actions;
         let k = cfg.max_delay;
         let pmf = match &cfg.told {
@@ -203,7 +220,7 @@ impl Deconvolver {
             r_group: vec![0.0; num_pairs],
             succ: vec![UNSEEN; num_pairs],
             num_actions,
-            stats: LagStats::new(num_pairs, k),
+            stats: LagStats::new(num_pairs, k, counts),
             hist_x: Vec::new(),
             hist_r: Vec::new(),
             rss: None,
@@ -266,6 +283,12 @@ impl Deconvolver {
         self.stats.t
     }
 
+    /// Bytes held by the co-occurrence counts now (0 for a deconvolver that uses
+    /// another's), and the distinct (pair, pair, lag) triples among them.
+    pub fn count_bytes(&self) -> (usize, usize) {
+        (self.stats.count_bytes(), self.stats.triples())
+    }
+
     /// Refits so far.
     pub fn refits(&self) -> u64 {
         self.refits
@@ -276,7 +299,9 @@ impl Deconvolver {
         self.stats.n()
     }
 
-    /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`.
+    /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without the
+    /// co-occurrence counts, which grow with the run (12 bytes per distinct (pair, pair,
+    /// lag) triple seen, at most K + 1 new ones per step; [`Self::count_bytes`]).
     pub fn stats_bytes(pairs: usize, max_delay: usize) -> u128 {
         LagStats::bytes(pairs, max_delay)
     }
@@ -379,7 +404,8 @@ impl Deconvolver {
             .map(|d| (d.rss.unwrap_or(d.stats.sum_r2).max(0.0) / d.stats.t.max(1) as f64).sqrt())
             .collect();
         let fit_all = |ds: &mut [Deconvolver]| -> f64 {
-            ds.iter_mut().zip(&sigmas).map(|(d, &sigma)| d.fit_rewards(sigma, false)).sum()
+            let (g, a) = Self::shared_gram(ds);
+            ds.iter_mut().zip(&sigmas).map(|(d, &sigma)| d.fit_rewards(&g, a[0], sigma, false)).sum()
         };
         fit_all(ds);
         if ds[0].cfg.told.is_none() {
@@ -406,12 +432,23 @@ impl Deconvolver {
                 }
             }
         }
+        let joint = ds.iter().any(Deconvolver::joint_on).then(|| Self::shared_gram(ds));
         for (d, &sigma) in ds.iter_mut().zip(&sigmas) {
-            if d.joint_on() {
-                d.fit_rewards(sigma, true);
+            if let Some((g, a)) = &joint
+                && d.joint_on()
+            {
+                d.fit_rewards(g, a[0], sigma, true);
             }
             d.refits += 1;
         }
+    }
+
+    /// The Gram matrix of the first deconvolver's counts under its p̂, shared by all of
+    /// `ds` (they see the same pairs and share p̂), and the a_j.
+    fn shared_gram(ds: &mut [Deconvolver]) -> (linalg::Gram, Vec<f64>) {
+        debug_assert!(ds.iter().all(|d| d.pmf == ds[0].pmf && d.stats.t == ds[0].stats.t));
+        ds[0].stats.merge();
+        ds[0].stats.gram(&ds[0].pmf)
     }
 
     /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
@@ -604,7 +641,8 @@ pub(crate) mod tests {
         let objective = |d: &mut Deconvolver, p: &[f64]| {
             d.pmf = p.to_vec();
             let sigma = (d.rss.unwrap() / d.stats.t as f64).sqrt();
-            d.fit_rewards(sigma, false)
+            let (g, a) = Deconvolver::shared_gram(std::slice::from_mut(d));
+            d.fit_rewards(&g, a[0], sigma, false)
         };
         let (o_truth, o_late) = (objective(&mut d, &truth), objective(&mut d, &late));
         assert!(o_truth < o_late, "with groups: {o_truth} vs {o_late}");

@@ -4,6 +4,7 @@
 
 use mmq_core::DelayDist;
 
+use super::stats::LagStats;
 use super::{Deconvolver, QP_ITERS, WEIGHTED_PASSES};
 
 /// The delay pmf of `dist` over 0..=`max_delay`, the tail beyond folded into the last bin.
@@ -175,7 +176,7 @@ impl Deconvolver {
     /// The least-squares system of p given R̂, ½ pᵀAp − cᵀp: (A, c, R̂ by compact pair,
     /// max |R̂|); None when R̂ is zero.
     #[allow(clippy::type_complexity)]
-    fn pmf_system(&self) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>, f64)> {
+    fn pmf_system(&self, counts: &LagStats) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>, f64)> {
         let st = &self.stats;
         let n = st.n();
         let k_n = self.cfg.max_delay + 1;
@@ -185,7 +186,7 @@ impl Deconvolver {
         }
         // q_j = Rᵀ C_j R over the support of R;  c_k = Σ_i R_i B_k(i).
         let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
-        let q = st.lag_products(&support, &r);
+        let q = counts.lag_products(&support, &r);
         let cvec = st.lagged_reward_sums(&r);
         // A_{kk'} = Σ_t y_{t−k} y_{t−k'} = q_{|k−k'|} − E(|k−k'|, min(k, k')), where
         // E(j, m) = Σ_{u=T−m}^{T−1} y_{u−j} y_u removes the windows that end after now.
@@ -216,13 +217,14 @@ impl Deconvolver {
     /// p given R̂ of every deconvolver in `ds` (sharing one pmf): FISTA over the simplex
     /// on the sum of their systems ½ pᵀAp − cᵀp, then the reweighted passes.
     pub(super) fn fit_pmf_all(ds: &mut [Deconvolver]) {
+        ds[0].stats.merge();
         let k_n = ds[0].cfg.max_delay + 1;
         let cfg = ds[0].cfg.clone();
         let mut systems: Vec<(usize, Vec<f64>, f64)> = Vec::new();
         let mut total: Option<System> = None;
         let mut rmax = 0.0f64;
         for (di, d) in ds.iter().enumerate() {
-            let Some((amat, cvec, r, rm)) = d.pmf_system() else { continue };
+            let Some((amat, cvec, r, rm)) = d.pmf_system(&ds[0].stats) else { continue };
             rmax = rmax.max(rm);
             total = add_system(total, (amat, cvec));
             systems.push((di, r, rm));

@@ -165,11 +165,11 @@ impl Deconvolver {
         self.cfg.state_rewards || self.cfg.successor_groups
     }
 
-    /// R given p: lasso by coordinate descent on (G, b), warm-started. Returns the
+    /// R given p: lasso by coordinate descent on (G, b), warm-started; `g` and a_0 = Σ p(k)²
+    /// from the counts under the current p̂ ([`super::stats::LagStats::gram`]). Returns the
     /// penalised objective (D2) at the fit (½ RSS + penalties).
-    pub(super) fn fit_rewards(&mut self, sigma: f64, joint: bool) -> f64 {
-        let (g, a) = self.stats.gram(&self.pmf);
-        let l = self.lasso_problem(&g, a[0], sigma);
+    pub(super) fn fit_rewards(&mut self, g: &Gram, a0: f64, sigma: f64, joint: bool) -> f64 {
+        let l = self.lasso_problem(g, a0, sigma);
         let mut it = self.start_iterate(&l);
         let mut last: JointState = None;
         // Between two drops of the joint test the refit is cut short (ELIM_SWEEPS);
@@ -188,7 +188,7 @@ impl Deconvolver {
                     self.joint_drops += 1;
                     let d = -it.rp[i];
                     it.rp[i] = 0.0;
-                    it.shift(&g, i, d);
+                    it.shift(g, i, d);
                     it.excluded[i] = true;
                 }
             }
