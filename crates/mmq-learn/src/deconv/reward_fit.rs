@@ -29,6 +29,8 @@ struct Lasso<'a> {
     groups: Groups,
     /// 1ᵀ G_g 1 of each group g.
     gss: Vec<f64>,
+    /// G(i, i) of each compact pair.
+    diag: Vec<f64>,
 }
 
 impl Lasso<'_> {
@@ -92,7 +94,7 @@ impl Iterate {
                 }
                 // The pair features.
                 for &i in members {
-                    let gii = l.g.get(i, i);
+                    let gii = l.diag[i];
                     if gii <= 0.0 || self.excluded[i] {
                         continue;
                     }
@@ -225,6 +227,7 @@ impl Deconvolver {
             grouped,
             groups,
             gss,
+            diag: (0..n).map(|i| g.get(i, i)).collect(),
         }
     }
 
