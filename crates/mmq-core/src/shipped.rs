@@ -6,13 +6,15 @@
 //! run from another folder, say) is the embedded copy used.
 
 /// (name, file text) of every shipped world.
-pub const WORLDS: [(&str, &str); 6] = [
+pub const WORLDS: [(&str, &str); 8] = [
     ("paper-3x3", include_str!("../../../worlds/paper-3x3.toml")),
     ("paper-5x5", include_str!("../../../worlds/paper-5x5.toml")),
     ("paper-9x9", include_str!("../../../worlds/paper-9x9.toml")),
     ("corridor-7x3", include_str!("../../../worlds/corridor-7x3.toml")),
     ("room-12x6", include_str!("../../../worlds/room-12x6.toml")),
     ("maze-15x15", include_str!("../../../worlds/maze-15x15.toml")),
+    ("open-30x30", include_str!("../../../worlds/open-30x30.toml")),
+    ("open-50x50", include_str!("../../../worlds/open-50x50.toml")),
 ];
 
 /// The text of the shipped world `name`, if there is one.

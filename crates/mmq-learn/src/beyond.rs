@@ -88,7 +88,7 @@ pub struct BeyondParams {
     /// rewards (0: off; [`crate::deconv_model`]).
     pub probe_rate: f64,
     /// `deconv-model`: probes stop once the median of the delay estimate has a standard
-    /// error of at most this many steps ([`crate::deconv::median_se`]; > 0).
+    /// error of at most this many steps ([`crate::deconv::Deconvolver::median_se`]; > 0).
     pub probe_precision: f64,
     /// `deconv-q`: each transition is learned again this many steps later, when R̂ has
     /// heard of its reward (0: learned once, at once).

@@ -23,7 +23,9 @@
 //!
 //! Assumes rewards are deterministic per transition with few distinct values (the
 //! paper's worlds, the maze, the robot); with continuous rewards no value is seen
-//! twice and the summed fit is kept. Memory: one set of co-occurrence counts per value.
+//! twice and the summed fit is kept. The per-value deconvolvers see the same pairs, so one
+//! set of co-occurrence counts (the first's) serves them all; each keeps its own lagged
+//! reward sums.
 
 use std::collections::HashMap;
 
@@ -269,8 +271,12 @@ impl ValueDeconvolver {
         let mut parts: Vec<Deconvolver> = self
             .values
             .iter()
-            .map(|&v| {
-                let mut d = Deconvolver::new(self.cfg.clone(), self.num_states, self.num_actions);
+            .enumerate()
+            .map(|(k, &v)| {
+                // They all see the same pairs: the first keeps the co-occurrence counts
+                // for all of them.
+                let mut d =
+                    Deconvolver::with_counts(self.cfg.clone(), self.num_states, self.num_actions, k == 0);
                 d.set_sign(v);
                 d
             })

@@ -15,7 +15,7 @@
 //! *Delay probes.* A policy that has learned to avoid costs also stops producing the
 //! rewards that date the delay best: its goal rewards come at a near-constant period, and
 //! a delay k cannot be told from k + period from them. While the median of p̂ is
-//! imprecise ([`crate::deconv::median_se`]: a standard error above `probe_precision`
+//! imprecise ([`crate::deconv::Deconvolver::median_se`]: a standard error above `probe_precision`
 //! steps and, on the probability scale, above [`PROBE_CDF_PRECISION`]), a probe falls
 //! due with probability `probe_rate` per step; a due probe is taken at the first step that
 //! is not ε-exploration in a state with an action known to keep the agent in place at a

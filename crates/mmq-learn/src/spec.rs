@@ -235,8 +235,10 @@ impl LearnerSpec {
                 sa * (self.max_delay as u128 + 1)
             }
             LearnerKind::QLambda | LearnerKind::SarsaLambda | LearnerKind::Oracle => sa,
-            // Q, R̂ and the lag statistics of every pair (worst case: all pairs visited),
-            // once per reward value when decoding (worst case: MAX_VALUES of them).
+            // Q, R̂ and the lagged reward sums of every pair (worst case: all pairs
+            // visited), once per reward value when decoding (worst case: MAX_VALUES of
+            // them); the sparse co-occurrence counts grow with the run instead (at most
+            // 12 bytes × (K + 1) per step, docs/performance.md).
             LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime => {
                 let sa = if self.kind == LearnerKind::DeconvModelTime {
                     sa + num_actions as u128 // the idle state
@@ -261,6 +263,18 @@ impl LearnerSpec {
         limit_bytes: u128,
     ) -> Result<Box<dyn Learner>, LearnError> {
         self.validate()?;
+        let deconv = matches!(
+            self.kind,
+            LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime
+        );
+        // deconv-model-time adds an idle state.
+        if deconv && (num_states + 1).saturating_mul(num_actions) > crate::deconv::MAX_PAIRS {
+            return Err(LearnError::InvalidParam {
+                field: "world",
+                value: format!("{num_states} cells × {num_actions} actions"),
+                accepted: "the deconvolving learners accept at most 8,388,608 state-action pairs; use a smaller world",
+            });
+        }
         let (entries, bytes) = self.table_bytes(num_states, num_actions);
         if bytes > limit_bytes {
             return Err(LearnError::TooLarge {

@@ -1,0 +1,64 @@
+//! Speed of `deconv-model` as the world grows: the paper's 9×9 room, the 15×15 maze and
+//! the open 30×30 and 50×50 rooms, Poisson(13) delays, ε 0.05, q0 10, the default
+//! learner otherwise (λ̂max 50). Environment, channel and learner together over a whole
+//! run of 150,000 steps (the refits grow sparser with t, so the cost per step depends on
+//! the horizon); throughput in steps per second. Results: docs/performance.md.
+//!
+//! `cargo bench -p mmq-learn --bench deconv_scaling` (one world: append its name, e.g.
+//! `-- open-30x30`).
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
+use mmq_grid::GridEnv;
+use mmq_learn::{Experience, LearnerKind, LearnerSpec};
+
+const STEPS: u64 = 150_000;
+
+fn world(name: &str) -> World {
+    World::load(format!("{}/../../worlds/{name}.toml", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+/// A fresh learner from `spec`, then `STEPS` steps of learning; returns the reward earned.
+fn run(spec: &LearnerSpec, w: &World) -> f64 {
+    let mut learner = spec.build(w.num_cells(), 4, 1 << 33).unwrap();
+    let seeds = SeedTree::new(1);
+    let mut ch = DelayedReward::new(GridEnv::new(w), &DelayDist::Poisson(13.0), false);
+    let mut s = ch.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay), Start::World).unwrap();
+    let mut rng: Rng = seeds.rng(Stream::Explore);
+    let mut total = 0.0;
+    for t in 0..STEPS {
+        let d = learner.act(s, &mut rng);
+        let st = ch.step(d.action).unwrap();
+        learner.observe(&Experience {
+            t,
+            state: s,
+            action: d.action,
+            next_state: st.step.state,
+            reward: st.delivered,
+            time_s: st.time_s,
+            truth: None,
+        });
+        total += st.step.reward;
+        s = st.step.state;
+    }
+    total
+}
+
+fn bench(c: &mut Criterion) {
+    let spec = LearnerSpec {
+        kind: LearnerKind::DeconvModel,
+        params: mmq_learn::spec::Params { epsilon: 0.05, q0: 10.0, ..Default::default() },
+        ..LearnerSpec::default()
+    };
+    let mut g = c.benchmark_group("deconv-model-scaling");
+    g.throughput(Throughput::Elements(STEPS));
+    g.sample_size(10);
+    for name in ["paper-9x9", "maze-15x15", "open-30x30", "open-50x50"] {
+        let w = world(name);
+        g.bench_function(name, |b| b.iter(|| run(&spec, &w)));
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

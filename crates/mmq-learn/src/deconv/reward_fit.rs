@@ -1,0 +1,322 @@
+//! The fit of R given p: a lasso on the Gram matrix G and the right-hand side b of the
+//! sufficient statistics, solved by coordinate descent from the previous R̂, with reward
+//! features per pair and per group of pairs, and the joint test of the active pairs.
+
+use nalgebra::DMatrix;
+
+use super::linalg::{Gram, joint_failure, joint_inverse, update_inverse};
+use super::stats::UNSEEN;
+use super::{CD_SWEEPS, Deconvolver, ELIM_SWEEPS, MIXED, PAIR_PENALTY};
+
+/// The reward groups, as (a member's pair id, compact members).
+pub(crate) type Groups = Vec<(usize, Vec<usize>)>;
+
+/// The penalised least-squares problem of R given p (D2 with p fixed).
+struct Lasso<'a> {
+    g: &'a Gram,
+    bvec: Vec<f64>,
+    /// μ a_0: the ridge on every feature.
+    ridge: f64,
+    /// κ √(2 ln m) σ̂: the significance part of the threshold, per √information.
+    kappa: f64,
+    /// λ₁.
+    lasso: f64,
+    /// Sign every feature must have (0: free).
+    sign: f64,
+    /// Penalty factor of a pair's own feature.
+    pair_factor: f64,
+    grouped: bool,
+    groups: Groups,
+    /// 1ᵀ G_g 1 of each group g.
+    gss: Vec<f64>,
+    /// G(i, i) of each compact pair.
+    diag: Vec<f64>,
+}
+
+impl Lasso<'_> {
+    /// The threshold of a feature with information `info` and penalty `factor`.
+    fn threshold(&self, info: f64, factor: f64) -> f64 {
+        factor * (self.lasso * info + self.kappa * info.sqrt())
+    }
+
+    /// The exact minimiser along one feature; with a sign constraint, clipped at zero
+    /// (still exact: the one-dimensional problem is convex).
+    fn soft(&self, z: f64, info: f64, factor: f64) -> f64 {
+        let thr = self.threshold(info, factor);
+        let v = if z > thr {
+            (z - thr) / (info + self.ridge)
+        } else if z < -thr {
+            (z + thr) / (info + self.ridge)
+        } else {
+            0.0
+        };
+        if v * self.sign < 0.0 { 0.0 } else { v }
+    }
+}
+
+/// The coordinate-descent iterate: pair parts, group parts, their sums and G R.
+struct Iterate {
+    rp: Vec<f64>,
+    rs: Vec<f64>,
+    /// Total R̂ per compact pair.
+    r: Vec<f64>,
+    /// G r.
+    gr: Vec<f64>,
+    /// Pairs dropped by the joint test; they stay at zero for this fit.
+    excluded: Vec<bool>,
+}
+
+impl Iterate {
+    /// R̂ of compact pair i moved by d: r(i) += d, G r += d · G(i, ·).
+    fn shift(&mut self, g: &Gram, i: usize, d: f64) {
+        self.r[i] += d;
+        g.add_row(i, d, &mut self.gr);
+    }
+
+    /// At most `sweeps` sweeps of coordinate descent over every feature (fewer once no
+    /// estimate moves by 1e-12).
+    fn descend(&mut self, l: &Lasso<'_>, sweeps: usize) {
+        for _ in 0..sweeps {
+            let mut moved: f64 = 0.0;
+            for (gi, (_, members)) in l.groups.iter().enumerate() {
+                // The group feature: one value shared by the group's pairs.
+                if l.grouped && members.len() > 1 && l.gss[gi] > 0.0 {
+                    let z: f64 = members.iter().map(|&i| l.bvec[i] - self.gr[i]).sum::<f64>()
+                        + l.gss[gi] * self.rs[gi];
+                    let d = l.soft(z, l.gss[gi], 1.0) - self.rs[gi];
+                    if d != 0.0 {
+                        self.rs[gi] += d;
+                        for &i in members {
+                            self.shift(l.g, i, d);
+                        }
+                        moved = moved.max(d.abs());
+                    }
+                }
+                // The pair features.
+                for &i in members {
+                    let gii = l.diag[i];
+                    if gii <= 0.0 || self.excluded[i] {
+                        continue;
+                    }
+                    let z = l.bvec[i] - self.gr[i] + gii * self.rp[i];
+                    let d = l.soft(z, gii, l.pair_factor) - self.rp[i];
+                    if d != 0.0 {
+                        self.rp[i] += d;
+                        self.shift(l.g, i, d);
+                        moved = moved.max(d.abs());
+                    }
+                }
+            }
+            if moved < 1e-12 {
+                break;
+            }
+        }
+    }
+}
+
+/// The joint test's state between two of its rounds: the active set (in the order of its
+/// inverse) and (G_S + ridge)⁻¹.
+type JointState = Option<(Vec<usize>, DMatrix<f64>)>;
+
+/// What one round of the joint test decided.
+enum JointStep {
+    /// Every active pair passes: the fit is final.
+    Done,
+    /// Every pair passes, but the last fit was cut short: run it to convergence.
+    Converge,
+    /// This compact pair was dropped: refit the rest.
+    Dropped(usize),
+}
+
+impl Deconvolver {
+    /// Whether the joint test runs (on, and pair features only).
+    pub(super) fn joint_on(&self) -> bool {
+        self.cfg.joint_test > 0.0 && !self.cfg.state_rewards
+    }
+
+    /// The reward groups, as (a member's pair id, compact members): the pairs of each
+    /// state (`state_rewards`), or the pairs of a state that have only ever led to one
+    /// and the same next state (`successor_groups`; a pair seen leading to two next
+    /// states is a group of its own), or one group per state when neither is on (then
+    /// unused). Groups of one pair carry no feature of their own.
+    pub(crate) fn groups(&self) -> Groups {
+        let a_n = self.num_actions;
+        let mut groups: Groups = Vec::new();
+        let mut slot = std::collections::HashMap::new();
+        for (i, &x) in self.stats.pairs.iter().enumerate() {
+            let st = x as usize / a_n;
+            let succ = self.succ[x as usize];
+            let key = if !self.cfg.successor_groups || self.cfg.state_rewards {
+                (st, 0)
+            } else if succ == UNSEEN || succ == MIXED {
+                (st, u64::from(u32::MAX) + 1 + i as u64)
+            } else {
+                (st, u64::from(succ))
+            };
+            let g_i = *slot.entry(key).or_insert_with(|| {
+                groups.push((x as usize, Vec::new()));
+                groups.len() - 1
+            });
+            groups[g_i].1.push(i);
+        }
+        groups
+    }
+
+    /// Whether pairs share group features (per state or per successor).
+    fn grouped(&self) -> bool {
+        self.cfg.state_rewards || self.cfg.successor_groups
+    }
+
+    /// R given p: lasso by coordinate descent on (G, b), warm-started; `g` and a_0 = Σ p(k)²
+    /// from the counts under the current p̂ ([`super::stats::LagStats::gram`]). Returns the
+    /// penalised objective (D2) at the fit (½ RSS + penalties).
+    pub(super) fn fit_rewards(&mut self, g: &Gram, a0: f64, sigma: f64, joint: bool) -> f64 {
+        let l = self.lasso_problem(g, a0, sigma);
+        let mut it = self.start_iterate(&l);
+        let mut last: JointState = None;
+        // Between two drops of the joint test the refit is cut short (ELIM_SWEEPS);
+        // before the test may pass, the fit is run to convergence.
+        let mut sweeps = CD_SWEEPS;
+        loop {
+            it.descend(&l, sweeps);
+            if !joint || !self.joint_on() {
+                break;
+            }
+            match self.joint_round(&l, &it, &mut last, sweeps < CD_SWEEPS) {
+                JointStep::Done => break,
+                JointStep::Converge => sweeps = CD_SWEEPS,
+                JointStep::Dropped(i) => {
+                    sweeps = ELIM_SWEEPS;
+                    self.joint_drops += 1;
+                    let d = -it.rp[i];
+                    it.rp[i] = 0.0;
+                    it.shift(g, i, d);
+                    it.excluded[i] = true;
+                }
+            }
+        }
+        self.store_fit(&l, &it)
+    }
+
+    /// The lasso of R given the current p̂, with Gram matrix `g`, a_0 = Σ p(k)² and the
+    /// residual deviation `sigma`.
+    fn lasso_problem<'a>(&self, g: &'a Gram, a0: f64, sigma: f64) -> Lasso<'a> {
+        let n = g.n();
+        // κ × the universal threshold √(2 ln m) of m features (Donoho & Johnstone): with
+        // hundreds of pairs a plain 2σ test would pass several spurious rewards per fit.
+        let m = (n + n / self.num_actions.max(1)).max(2) as f64;
+        // With group features, a pair's own reward pays PAIR_PENALTY × a group's penalty:
+        // of two explanations that fit equally (the goal's actions, or the only pair that
+        // enters the goal), the coarser one wins.
+        let grouped = self.grouped();
+        let groups = self.groups();
+        let gss = groups
+            .iter()
+            .map(|(_, members)| {
+                members.iter().map(|&i| members.iter().map(|&i2| g.get(i, i2)).sum::<f64>()).sum()
+            })
+            .collect();
+        Lasso {
+            g,
+            bvec: self.stats.bvec(&self.pmf),
+            ridge: self.cfg.reward_prior * a0,
+            kappa: self.cfg.significance * (2.0 * m.ln()).sqrt() * sigma,
+            lasso: self.cfg.lasso,
+            sign: self.sign,
+            pair_factor: if grouped { PAIR_PENALTY } else { 1.0 },
+            grouped,
+            groups,
+            gss,
+            diag: (0..n).map(|i| g.get(i, i)).collect(),
+        }
+    }
+
+    /// The warm start: the previous fit's parts, their sums and G R.
+    fn start_iterate(&self, l: &Lasso<'_>) -> Iterate {
+        let n = l.g.n();
+        let rp: Vec<f64> = self.stats.pairs.iter().map(|&x| self.r_pair[x as usize]).collect();
+        let mut rs: Vec<f64> = l.groups.iter().map(|(x0, _)| self.r_group[*x0]).collect();
+        if !l.grouped {
+            rs.iter_mut().for_each(|x| *x = 0.0);
+        }
+        let mut r: Vec<f64> = vec![0.0; n];
+        for (gi, (_, members)) in l.groups.iter().enumerate() {
+            for &i in members {
+                r[i] = rs[gi] + rp[i];
+            }
+        }
+        let gr: Vec<f64> = (0..n).map(|i| l.g.row_dot(i, &r)).collect();
+        Iterate { rp, rs, r, gr, excluded: vec![false; n] }
+    }
+
+    /// One round of the joint test (once per refit, on its final fit): a pair that passed
+    /// the lasso's test given the others must also stand out jointly with them,
+    /// |R̂(x)| > κ_J κ √(2 ln m) σ̂ √[(G_S + ridge)⁻¹]_xx over the active set S.
+    /// Two pairs that always come close together in time (a corridor step and its way
+    /// back) are nearly collinear: each can carry a large reward of opposite sign that the
+    /// per-pair test passes, while their joint standard errors are large. The pair
+    /// furthest below its threshold is dropped and the rest refitted (backward
+    /// elimination: of two collinear pairs one goes, and the other then carries what the
+    /// data support — two wall bumps in a corner keep one −1 between them, where dropping
+    /// every failing pair at once lost both), until every active pair passes. `cut_short`:
+    /// the last descent stopped at ELIM_SWEEPS.
+    fn joint_round(
+        &mut self,
+        l: &Lasso<'_>,
+        it: &Iterate,
+        last: &mut JointState,
+        cut_short: bool,
+    ) -> JointStep {
+        let n = l.g.n();
+        let now: Vec<usize> = (0..n).filter(|&i| it.rp[i] != 0.0).collect();
+        if now.len() < 2 {
+            return JointStep::Done;
+        }
+        // After a drop the refit changes the set by a few pairs: the inverse is then
+        // updated pair by pair in O(s²) each, instead of refactored in O(s³).
+        let updated = last
+            .take()
+            .and_then(|(order, inv)| update_inverse(l.g, l.ridge, order, inv, &now, (now.len() / 4).max(4)));
+        let (active, inv) = match updated {
+            Some(x) => x,
+            None => {
+                self.joint_factorisations += 1;
+                match joint_inverse(l.g, &now, l.ridge) {
+                    Some(inv) => (now, inv),
+                    None => return JointStep::Done,
+                }
+            }
+        };
+        let failure = joint_failure(&inv, &active, &it.rp, self.cfg.joint_test * l.kappa);
+        let step = match failure {
+            None if cut_short => JointStep::Converge,
+            None => return JointStep::Done,
+            Some(pos) => JointStep::Dropped(active[pos]),
+        };
+        *last = Some((active, inv));
+        step
+    }
+
+    /// Stores the fit in R̂ and its parts and the RSS; returns the penalised objective.
+    fn store_fit(&mut self, l: &Lasso<'_>, it: &Iterate) -> f64 {
+        // RSS = Σ r² − 2 Rᵀb + Rᵀ G R
+        let rb: f64 = it.r.iter().zip(&l.bvec).map(|(x, y)| x * y).sum();
+        let rgr: f64 = it.r.iter().zip(&it.gr).map(|(x, y)| x * y).sum();
+        let rss = self.stats.sum_r2 - 2.0 * rb + rgr;
+        self.rss = Some(rss);
+        let mut penalty = 0.0;
+        for (i, &x) in self.stats.pairs.iter().enumerate() {
+            self.r[x as usize] = it.r[i];
+            self.r_pair[x as usize] = it.rp[i];
+            penalty += l.threshold(l.g.get(i, i), l.pair_factor) * it.rp[i].abs()
+                + 0.5 * l.ridge * it.rp[i] * it.rp[i];
+        }
+        for (gi, (_, members)) in l.groups.iter().enumerate() {
+            for &i in members {
+                self.r_group[self.stats.pairs[i] as usize] = it.rs[gi];
+            }
+            penalty += l.threshold(l.gss[gi], 1.0) * it.rs[gi].abs() + 0.5 * l.ridge * it.rs[gi] * it.rs[gi];
+        }
+        0.5 * rss + penalty
+    }
+}

@@ -1,0 +1,427 @@
+//! The sufficient statistics of the deconvolution: the lag co-occurrence counts
+//! C_j(x, x') = #{t : x_{t−j} = x, x_t = x'} (sparse, [`super::counts`]) and the lagged
+//! reward sums B_k(x) = Σ_t r_t 1[x_{t−k} = x], from which the reward fit's Gram matrix
+//! and the pmf fit's least-squares system are built without the history.
+
+use super::counts::{CoCounts, unpack};
+use super::linalg::Gram;
+
+/// No pair yet.
+pub(crate) const UNSEEN: u32 = u32::MAX;
+
+/// C_j, B_k and the pairs of the last 2(K + 1) steps, over compact pair indices (in the
+/// order pairs were first taken).
+#[derive(Clone, Debug)]
+pub(crate) struct LagStats {
+    /// K + 1.
+    k_n: usize,
+    /// Compact index of each pair id (UNSEEN until first taken).
+    index: Vec<u32>,
+    /// Pair id of each compact index.
+    pub(crate) pairs: Vec<u32>,
+    /// C_j(i, i'), when these statistics keep them (deconvolvers that see the same pairs
+    /// share the counts of the first: [`crate::decode`]).
+    counts: Option<CoCounts>,
+    /// B_k(i) at i·(K + 1) + k.
+    b: Vec<f64>,
+    /// Compact indices of the last 2(K + 1) steps, by t mod 2(K + 1).
+    recent: Vec<u32>,
+    /// Σ_t r_t².
+    pub(crate) sum_r2: f64,
+    /// Steps observed.
+    pub(crate) t: u64,
+    /// First step of the current run (after `reset_history`).
+    pub(crate) start: u64,
+}
+
+impl LagStats {
+    /// Empty statistics over `num_pairs` pair ids and lags 0..=`max_delay`; `counts`:
+    /// whether they keep the co-occurrence counts.
+    pub(crate) fn new(num_pairs: usize, max_delay: usize, counts: bool) -> Self {
+        let k_n = max_delay + 1;
+        Self {
+            k_n,
+            index: vec![UNSEEN; num_pairs],
+            pairs: Vec::new(),
+            counts: counts.then(CoCounts::default),
+            b: Vec::new(),
+            recent: vec![UNSEEN; 2 * k_n],
+            sum_r2: 0.0,
+            t: 0,
+            start: 0,
+        }
+    }
+
+    /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without
+    /// the co-occurrence counts (those grow with the run: 12 bytes per distinct
+    /// (pair, pair, lag) triple, at most K + 1 new ones per step).
+    pub(crate) fn bytes(pairs: usize, max_delay: usize) -> u128 {
+        let (p, k) = (pairs as u128, max_delay as u128 + 1);
+        k * p * 8 + p * 24 + 16 * k
+    }
+
+    /// Bytes held by the co-occurrence counts now.
+    pub(crate) fn count_bytes(&self) -> usize {
+        self.counts.as_ref().map_or(0, CoCounts::bytes)
+    }
+
+    /// Distinct (pair, pair, lag) triples counted so far (merged).
+    pub(crate) fn triples(&self) -> usize {
+        self.counts.as_ref().map_or(0, CoCounts::len)
+    }
+
+    /// The number of pairs taken so far (compact indices 0..n).
+    pub(crate) fn n(&self) -> usize {
+        self.pairs.len()
+    }
+
+    fn compact(&mut self, x: usize) -> usize {
+        if self.index[x] != UNSEEN {
+            return self.index[x] as usize;
+        }
+        let i = self.pairs.len();
+        self.index[x] = i as u32;
+        self.pairs.push(x as u32);
+        self.b.resize(self.b.len() + self.k_n, 0.0);
+        i
+    }
+
+    /// One step: pair `x` taken, `reward` delivered. Returns the compact index of `x`.
+    pub(crate) fn record(&mut self, x: usize, reward: f64) -> usize {
+        let i = self.compact(x);
+        let k_n = self.k_n;
+        self.recent[(self.t % (2 * k_n) as u64) as usize] = i as u32;
+        self.sum_r2 += reward * reward;
+        let kmax = (k_n as u64 - 1).min(self.t - self.start) as usize;
+        if let Some(counts) = self.counts.as_mut() {
+            for k in 0..=kmax {
+                let e = self.recent[((self.t - k as u64) % (2 * k_n) as u64) as usize] as usize;
+                counts.add(e, i, k);
+            }
+        }
+        // Adding a zero delivery would change no sum.
+        if reward != 0.0 {
+            for k in 0..=kmax {
+                let e = self.past(self.t - k as u64);
+                self.b[e * k_n + k] += reward;
+            }
+        }
+        self.t += 1;
+        i
+    }
+
+    /// Compact index of the pair taken at step `u` (one of the last 2(K + 1)).
+    #[inline]
+    pub(crate) fn past(&self, u: u64) -> usize {
+        self.recent[(u % self.recent.len() as u64) as usize] as usize
+    }
+
+    /// Forgets the last K steps (a new run starts).
+    pub(crate) fn reset_history(&mut self) {
+        self.start = self.t;
+    }
+
+    /// Merges the pending co-occurrences (before [`Self::gram`] and
+    /// [`Self::lag_products`]).
+    pub(crate) fn merge(&mut self) {
+        if let Some(c) = self.counts.as_mut() {
+            c.merge();
+        }
+    }
+
+    fn merged(&self) -> &CoCounts {
+        self.counts.as_ref().expect("statistics with co-occurrence counts")
+    }
+
+    /// G = Σ_{j≥0} a_j C_j + Σ_{j≥1} a_j C_jᵀ less the edge terms of the last K steps,
+    /// a_j = Σ_k p(k) p(k+j); and the a_j. With H = a_0/2 C_0 + Σ_{j≥1} a_j C_j (summed
+    /// over j in lag order, entry by entry), G(i, i') = H(i, i') + H(i', i): only pairs
+    /// that co-occurred within K steps have an entry.
+    pub(crate) fn gram(&self, p: &[f64]) -> (Gram, Vec<f64>) {
+        let n = self.n();
+        let k_n = self.k_n;
+        // a_j = Σ_k p(k) p(k+j)
+        let a: Vec<f64> = (0..k_n).map(|j| (0..k_n - j).map(|k| p[k] * p[k + j]).sum()).collect();
+        let w: Vec<f64> = a.iter().enumerate().map(|(j, &aj)| if j == 0 { aj / 2.0 } else { aj }).collect();
+        // H in compressed rows: the triples come in (earlier, later, lag) order.
+        let mut hptr = vec![0usize; n + 1];
+        let (mut hcol, mut hval): (Vec<u32>, Vec<f64>) = (Vec::new(), Vec::new());
+        let mut cur = None;
+        let mut acc = 0.0;
+        for (key, c) in self.merged().iter() {
+            let (i, i2, j) = unpack(key);
+            if cur != Some((i, i2)) {
+                if let Some((ci, ci2)) = cur {
+                    hptr[ci + 1] += 1;
+                    hcol.push(ci2 as u32);
+                    hval.push(acc);
+                }
+                (cur, acc) = (Some((i, i2)), 0.0);
+            }
+            if w[j] != 0.0 {
+                acc += w[j] * c as f64;
+            }
+        }
+        if let Some((ci, ci2)) = cur {
+            hptr[ci + 1] += 1;
+            hcol.push(ci2 as u32);
+            hval.push(acc);
+        }
+        for i in 0..n {
+            hptr[i + 1] += hptr[i];
+        }
+        let mut g = symmetrise(n, &hptr, &hcol, &hval);
+        self.subtract_edges(&mut g, p);
+        (g, a)
+    }
+
+    /// Edge terms: a pair (u − j, u) with u among the last K steps has fewer than K + 1
+    /// windows after it; C_j counted it with the full weight a_j.
+    fn subtract_edges(&self, g: &mut Gram, p: &[f64]) {
+        let k_n = self.k_n;
+        let big_t = self.t;
+        for u in self.start.max(big_t.saturating_sub(k_n as u64 - 1))..big_t {
+            let left = (big_t - 1 - u) as usize; // windows end at t = u..=T−1, k' ≤ left
+            for j in 0..=((k_n - 1).min((u - self.start) as usize)) {
+                let deficit: f64 = (left + 1..k_n - j).map(|k2| p[k2 + j] * p[k2]).sum();
+                if deficit == 0.0 {
+                    continue;
+                }
+                let (v, w) = (self.past(u - j as u64), self.past(u));
+                g.sub(v, w, deficit);
+                if j > 0 {
+                    g.sub(w, v, deficit);
+                }
+            }
+        }
+    }
+
+    /// b(i) = Σ_k p(k) B_k(i) for every compact pair i.
+    pub(crate) fn bvec(&self, p: &[f64]) -> Vec<f64> {
+        let k_n = self.k_n;
+        (0..self.n()).map(|i| (0..k_n).map(|k| p[k] * self.b[i * k_n + k]).sum()).collect()
+    }
+
+    /// q_j = Rᵀ C_j R over the compact pairs `support` (those with R ≠ 0), j = 0..=K:
+    /// for each j, Σ over i in `support` of R(i) Σ_{i'} C_j(i, i') R(i'), in that order.
+    pub(crate) fn lag_products(&self, support: &[usize], r: &[f64]) -> Vec<f64> {
+        let counts = self.merged();
+        let mut q = vec![0.0; self.k_n];
+        let mut inner = vec![0.0; self.k_n];
+        for &i in support {
+            inner.iter_mut().for_each(|x| *x = 0.0);
+            for &i2 in support {
+                for (j, c) in counts.pair_run(i, i2) {
+                    inner[j] += c as f64 * r[i2];
+                }
+            }
+            for (qj, s) in q.iter_mut().zip(&inner) {
+                *qj += r[i] * s;
+            }
+        }
+        q
+    }
+
+    /// c_k = Σ_i R_i B_k(i), k = 0..=K.
+    pub(crate) fn lagged_reward_sums(&self, r: &[f64]) -> Vec<f64> {
+        let k_n = self.k_n;
+        (0..k_n).map(|k| (0..self.n()).map(|i| r[i] * self.b[i * k_n + k]).sum()).collect()
+    }
+}
+
+/// G = H + Hᵀ from H in compressed rows (columns in order within each row): row r of G
+/// merges row r of H with row r of Hᵀ, adding where both have an entry.
+fn symmetrise(n: usize, hptr: &[usize], hcol: &[u32], hval: &[f64]) -> Gram {
+    // Hᵀ by counting sort: scanning H's rows in order leaves each row of Hᵀ in column order.
+    let mut tptr = vec![0usize; n + 1];
+    hcol.iter().for_each(|&c| tptr[c as usize + 1] += 1);
+    for i in 0..n {
+        tptr[i + 1] += tptr[i];
+    }
+    let mut fill = tptr.clone();
+    let (mut tcol, mut tval) = (vec![0u32; hcol.len()], vec![0.0; hcol.len()]);
+    for r in 0..n {
+        for e in hptr[r]..hptr[r + 1] {
+            let c = hcol[e] as usize;
+            tcol[fill[c]] = r as u32;
+            tval[fill[c]] = hval[e];
+            fill[c] += 1;
+        }
+    }
+    let mut ptr = Vec::with_capacity(n + 1);
+    ptr.push(0);
+    let (mut col, mut val) = (Vec::with_capacity(2 * hcol.len()), Vec::with_capacity(2 * hcol.len()));
+    for r in 0..n {
+        let (mut a, ae, mut b, be) = (hptr[r], hptr[r + 1], tptr[r], tptr[r + 1]);
+        while a < ae || b < be {
+            let ca = if a < ae { hcol[a] } else { u32::MAX };
+            let cb = if b < be { tcol[b] } else { u32::MAX };
+            if ca == cb {
+                col.push(ca);
+                val.push(hval[a] + tval[b]);
+                a += 1;
+                b += 1;
+            } else if ca < cb {
+                col.push(ca);
+                val.push(hval[a]);
+                a += 1;
+            } else {
+                col.push(cb);
+                val.push(tval[b]);
+                b += 1;
+            }
+        }
+        ptr.push(col.len());
+    }
+    Gram::from_parts(n, ptr, col, val)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mmq_core::seed::rng_from_seed;
+    use rand::RngExt;
+
+    /// The dense statistics the sparse ones replace: C_j(i, i') at (j·n + i)·n + i' for
+    /// `n` compact pairs, counted step by step, and G built from them entry by entry
+    /// exactly as before (H = a_0/2 C_0 + Σ_{j≥1} a_j C_j over every entry, G = H + Hᵀ).
+    struct Dense {
+        n: usize,
+        k_n: usize,
+        c: Vec<u32>,
+    }
+
+    impl Dense {
+        fn gram(&self, st: &LagStats, p: &[f64]) -> Vec<f64> {
+            let (n, k_n) = (self.n, self.k_n);
+            let a: Vec<f64> = (0..k_n).map(|j| (0..k_n - j).map(|k| p[k] * p[k + j]).sum()).collect();
+            let mut g = vec![0.0; n * n];
+            for (j, &aj) in a.iter().enumerate() {
+                let w = if j == 0 { aj / 2.0 } else { aj };
+                if w == 0.0 {
+                    continue;
+                }
+                for i in 0..n {
+                    for i2 in 0..n {
+                        g[i * n + i2] += w * self.c[(j * n + i) * n + i2] as f64;
+                    }
+                }
+            }
+            for i in 0..n {
+                for i2 in i..n {
+                    let s = g[i * n + i2] + g[i2 * n + i];
+                    g[i * n + i2] = s;
+                    g[i2 * n + i] = s;
+                }
+            }
+            let mut gram = Gram::from_dense(n, g);
+            st.subtract_edges(&mut gram, p);
+            (0..n * n).map(|e| gram.get(e / n, e % n)).collect()
+        }
+
+        fn lag_products(&self, support: &[usize], r: &[f64]) -> Vec<f64> {
+            let n = self.n;
+            (0..self.k_n)
+                .map(|j| {
+                    let mut acc = 0.0;
+                    for &i in support {
+                        let s: f64 =
+                            support.iter().map(|&i2| self.c[(j * n + i) * n + i2] as f64 * r[i2]).sum();
+                        acc += r[i] * s;
+                    }
+                    acc
+                })
+                .collect()
+        }
+    }
+
+    /// A random walk over 12 pairs (some frequent, some rare), two runs, K = 5: the
+    /// sparse Gram matrix and lag products equal the dense ones bit for bit, at several
+    /// points of the run (merges in between) and for several pmfs, including one with a
+    /// zero lag; and G equals its definition Σ_t ψ_t ψ_tᵀ, ψ_t(x) = Σ_{k: x_{t−k} = x} p(k)
+    /// over the windows of each run that end by now, to rounding.
+    #[test]
+    fn sparse_statistics_equal_the_dense_reference() {
+        let (num_pairs, k) = (12, 5);
+        let k_n = k + 1;
+        let mut rng = rng_from_seed(21);
+        let mut st = LagStats::new(num_pairs, k, true);
+        let mut dense = Dense { n: 0, k_n, c: Vec::new() };
+        // Dense counts over pair ids (compact order differs): remapped at the end.
+        let mut c_ids = vec![0u32; k_n * num_pairs * num_pairs];
+        let mut runs: Vec<Vec<usize>> = vec![Vec::new()];
+        let pmfs =
+            [vec![0.1, 0.2, 0.4, 0.2, 0.1, 0.0], vec![1.0 / 6.0; 6], vec![0.0, 0.5, 0.0, 0.3, 0.2, 0.0]];
+        for t in 0..3000 {
+            if t == 1700 {
+                st.reset_history();
+                runs.push(Vec::new());
+            }
+            let x =
+                if rng.random_bool(0.8) { rng.random_range(0..4) } else { rng.random_range(4..num_pairs) };
+            let run = runs.last_mut().unwrap();
+            run.push(x);
+            for j in 0..=k.min(run.len() - 1) {
+                c_ids[(j * num_pairs + run[run.len() - 1 - j]) * num_pairs + x] += 1;
+            }
+            st.record(x, 0.0);
+            if [10, 999, 2999].contains(&t) {
+                st.merge();
+                let n = st.n();
+                dense.n = n;
+                dense.c = vec![0; k_n * n * n];
+                for j in 0..k_n {
+                    for i in 0..n {
+                        for i2 in 0..n {
+                            let (x1, x2) = (st.pairs[i] as usize, st.pairs[i2] as usize);
+                            dense.c[(j * n + i) * n + i2] = c_ids[(j * num_pairs + x1) * num_pairs + x2];
+                        }
+                    }
+                }
+                for p in &pmfs {
+                    let (g, _) = st.gram(p);
+                    let want = dense.gram(&st, p);
+                    for e in 0..n * n {
+                        assert_eq!(g.get(e / n, e % n).to_bits(), want[e].to_bits(), "t {t}, entry {e}");
+                    }
+                    // Σ_t ψ_t ψ_tᵀ over the windows that end by now; a finished run's last
+                    // pairs keep all K + 1 windows after them (its rewards still arrive).
+                    let mut def = vec![0.0; n * n];
+                    for (ri, run) in runs.iter().enumerate() {
+                        let end = if ri + 1 == runs.len() { run.len() } else { run.len() + k };
+                        for u in 0..end {
+                            let mut psi = vec![0.0; n];
+                            for (kk, &pk) in p.iter().enumerate().take(u + 1) {
+                                if u - kk < run.len() {
+                                    psi[st.index[run[u - kk]] as usize] += pk;
+                                }
+                            }
+                            for a in 0..n {
+                                for b in 0..n {
+                                    def[a * n + b] += psi[a] * psi[b];
+                                }
+                            }
+                        }
+                    }
+                    // The current run's windows end at T − 1: the edge terms remove exactly
+                    // what C counted for later ones.
+                    for e in 0..n * n {
+                        assert!(
+                            (g.get(e / n, e % n) - def[e]).abs() < 1e-9 * (1.0 + def[e].abs()),
+                            "t {t}, entry {e}"
+                        );
+                    }
+                }
+                let r: Vec<f64> = (0..n).map(|i| if i % 3 == 0 { 0.0 } else { i as f64 - 4.5 }).collect();
+                let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
+                let (q, want) = (st.lag_products(&support, &r), dense.lag_products(&support, &r));
+                assert_eq!(
+                    q.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    want.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+                );
+            }
+        }
+        // Memory: at most K + 1 triples per step, and at most the dense (K + 1) n².
+        assert!(st.triples() <= (3000 * k_n).min(k_n * num_pairs * num_pairs));
+    }
+}
