@@ -40,6 +40,7 @@
 //! learner, environment or run format — callers hand it numbers.
 
 mod clip;
+mod geometry;
 mod grid;
 mod line;
 mod render;
