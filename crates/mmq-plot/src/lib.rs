@@ -40,10 +40,12 @@
 //! learner, environment or run format — callers hand it numbers.
 
 mod clip;
+mod colorbar;
 mod geometry;
 mod grid;
 mod line;
 mod render;
+mod stroke;
 
 use std::path::PathBuf;
 
