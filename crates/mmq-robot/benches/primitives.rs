@@ -5,16 +5,14 @@
 //!
 //! Run: `cargo bench -p mmq-robot --bench primitives`. Group `robot`: criterion reports
 //! the time per batch of 100 primitives; primitives/s = 100 / that time (also printed as
-//! throughput). Group `robot-multi`: one [`RobotEnv`] primitive, or one primitive in each
-//! of N arenas in one rapier world ([`MultiArena::step_all`]); the throughput is
-//! primitives per second over all arenas.
+//! throughput).
 
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group};
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start, World};
-use mmq_robot::{MultiArena, NoiseConfig, Profile, RobotConfig, RobotEnv};
+use mmq_robot::{NoiseConfig, Profile, RobotConfig, RobotEnv};
 use rand::RngExt;
 
 const BATCH: u64 = 100;
@@ -61,61 +59,14 @@ fn primitives(c: &mut Criterion) {
     g.finish();
 }
 
-/// Many arenas in one rapier world ([`MultiArena`]) against one [`RobotEnv`]: one
-/// iteration is one primitive in every arena (`step_all`), so the throughput is
-/// primitives per second over all arenas. Same world and settings as above.
-fn multi(c: &mut Criterion) {
-    let world = World::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml")).unwrap();
-    let cfg = RobotConfig::from_world(&world).unwrap();
-    let mut g = c.benchmark_group("robot-multi");
-    {
-        let mut env = RobotEnv::new(&world, cfg.clone()).unwrap();
-        env.reset(1, Start::World).unwrap();
-        let mut rng = rng_from_seed(2);
-        g.throughput(Throughput::Elements(1));
-        g.bench_function("RobotEnv", |b| b.iter(|| black_box(env.step(rng.random_range(0..4)).unwrap())));
-    }
-    for n in [1usize, 16, 64, 256] {
-        let mut m = MultiArena::new(&world, cfg.clone(), n).unwrap();
-        let seeds: Vec<u64> = (1..=n as u64).collect();
-        m.reset(&seeds, Start::World).unwrap();
-        let mut rng = rng_from_seed(2);
-        let mut actions = vec![0; n];
-        let mut calls = 0u64;
-        g.throughput(Throughput::Elements(n as u64));
-        g.bench_function(format!("MultiArena {n}"), |b| {
-            b.iter(|| {
-                for a in &mut actions {
-                    *a = rng.random_range(0..4);
-                }
-                calls += 1;
-                for r in m.step_all(&actions) {
-                    black_box(r.unwrap());
-                }
-            })
-        });
-        let (physics, rapier) = m.world_steps();
-        if calls == 0 {
-            continue; // filtered out
-        }
-        println!(
-            "MultiArena {n}: {:.1} world physics steps ({:.1} of them rapier steps) per step_all",
-            physics as f64 / calls as f64,
-            rapier as f64 / calls as f64
-        );
-    }
-    g.finish();
-}
-
 criterion_group! {
     name = benches;
     config = Criterion::default().sample_size(20);
-    targets = primitives, multi
+    targets = primitives
 }
 
-/// `PRIMITIVES_RUN="env P"` or `"multi N P"`: instead of criterion, runs P random
-/// primitives on one RobotEnv, or P primitives in each of N arenas of a MultiArena, and
-/// exits; a last word `rapier` turns free flight off (for `perf stat -e task-clock` and callgrind, which measure CPU time and
+/// `PRIMITIVES_RUN="env P"`: instead of criterion, runs P random primitives on one
+/// RobotEnv and exits; a last word `rapier` turns free flight off (for `perf stat -e task-clock` and callgrind, which measure CPU time and
 /// instructions whatever the load; the difference of two lengths removes start-up).
 fn fixed_run(spec: &str) {
     let world = World::load(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml")).unwrap();
@@ -135,21 +86,7 @@ fn fixed_run(spec: &str) {
                 black_box(env.step(rng.random_range(0..4)).unwrap());
             }
         }
-        ["multi", n, p] => {
-            let n: usize = n.parse().unwrap();
-            let mut m = MultiArena::new(&world, cfg, n).unwrap();
-            m.reset(&(1..=n as u64).collect::<Vec<_>>(), Start::World).unwrap();
-            let mut actions = vec![0; n];
-            for _ in 0..p.parse::<u64>().unwrap() {
-                for a in &mut actions {
-                    *a = rng.random_range(0..4);
-                }
-                for r in m.step_all(&actions) {
-                    black_box(r.unwrap());
-                }
-            }
-        }
-        _ => panic!("PRIMITIVES_RUN: \"env P [rapier]\" or \"multi N P [rapier]\""),
+        _ => panic!("PRIMITIVES_RUN: \"env P [rapier]\""),
     }
 }
 

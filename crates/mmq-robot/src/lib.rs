@@ -1,9 +1,6 @@
 //! mmq-robot: a rapier2d differential-drive robot in the grid arena, as an
 //! [`mmq_core::Env`] whose actions are motion primitives between cells.
 //!
-//! [`MultiArena`] runs N arenas in one rapier world in lock-step, bit-identical to one
-//! [`RobotEnv`] per seed (`docs/robot.md`, "Many arenas in one world").
-//!
 //! Architecture invariant: this is the only crate of mmq that knows rapier. It knows no
 //! learner and no log format; what loggers need (poses, contacts, build features) goes
 //! out through the `Env` trait and [`features`].
@@ -27,7 +24,6 @@ mod drive;
 mod env;
 pub mod estimator;
 pub mod localisation;
-pub mod multi;
 pub mod odometry;
 pub mod overrides;
 mod physics;
@@ -39,7 +35,6 @@ mod robot;
 pub use arena::{Wall, walls};
 pub use config::{ActionSet, DEFAULT_DT_S, NoiseConfig, Preset, RobotConfig, RobotError, RobotTable};
 pub use env::RobotEnv;
-pub use multi::MultiArena;
 pub use overrides::apply_overrides;
 pub use profile::{Profile, RealisticConfig, RealisticTable};
 

@@ -1,7 +1,6 @@
 //! The motion primitives and their controller state: what a step asks the robot to do
 //! (turn, drive to the neighbouring cell, back off after a bump), resumable one physics
-//! step at a time so that one robot ([`crate::RobotEnv`]) and many in one world
-//! ([`crate::MultiArena`]) run the same code.
+//! step at a time.
 
 use std::f64::consts::{FRAC_PI_2, PI};
 

@@ -1,7 +1,7 @@
 //! [`Core`]: everything of one robot but its rapier body — configuration, drive,
 //! controller state, noise stream, clock, counters, trace, and (realistic profile) its
-//! odometry, localisation and estimator. [`crate::RobotEnv`] owns one with its own rapier
-//! world; [`crate::MultiArena`] owns many whose bodies share one world.
+//! odometry, localisation and estimator. [`crate::RobotEnv`] owns one with its rapier
+//! world.
 
 use std::f64::consts::FRAC_PI_2;
 
@@ -36,9 +36,8 @@ pub(crate) struct Counts {
 }
 
 /// Everything of one robot but its rapier body: configuration, drive, controller
-/// state, noise stream, clock, counters and trace. [`crate::RobotEnv`] owns one with its own
-/// rapier world; [`crate::MultiArena`] owns many whose bodies share one world. Methods
-/// that need the body take it as an argument.
+/// state, noise stream, clock, counters and trace. [`crate::RobotEnv`] owns one with its
+/// rapier world. Methods that need the body take it as an argument.
 pub(crate) struct Core {
     pub world: World,
     pub cfg: RobotConfig,

@@ -4,7 +4,6 @@ mod config;
 mod determinism;
 mod heading;
 mod motion;
-mod multi;
 mod realistic;
 mod trace;
 
