@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use mmq_core::{
-    DelayDist, DelayedReward, Env, Event, Observer, Optimum, RunInfo, SeedTree, Start, StepTrace, Stream,
-    World,
+    DelayDist, DelayedReward, Env, Event, Move, Observer, Optimum, RunInfo, SeedTree, Start, StepTrace,
+    Stream, World,
 };
 use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
@@ -155,6 +155,37 @@ pub fn robot_env(world: &World) -> Result<RobotEnv, LabError> {
     let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
     let cfg = RobotConfig::from_world(world).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))?;
     RobotEnv::new(world, cfg).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))
+}
+
+/// The learner's table shape, (states, actions), in `cfg`'s environment on `world`,
+/// without building the environment.
+pub fn table_shape(cfg: &RunConfig, world: &World) -> Result<(usize, usize), LabError> {
+    match cfg.env {
+        EnvKind::Grid => Ok((world.num_cells(), Move::ALL.len())),
+        EnvKind::Robot => {
+            let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
+            let rc =
+                RobotConfig::from_world(world).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))?;
+            Ok(rc.actions.table_shape(world.num_cells()))
+        }
+    }
+}
+
+/// Refuses, before anything is allocated, a learner whose tables for one seed (the
+/// learner's and its baseline's) need more than `limit` bytes; returns what they need.
+pub fn check_tables_fit(cfg: &RunConfig, world: &World, limit: u128) -> Result<u128, LabError> {
+    let (n_s, n_a) = table_shape(cfg, world)?;
+    let (entries, bytes) = cfg.learner.table_bytes(n_s, n_a);
+    if bytes > limit {
+        return Err(mmq_learn::LearnError::TooLarge {
+            learner: cfg.learner.kind.name(),
+            entries,
+            need_gib: bytes as f64 / (1u128 << 30) as f64,
+            limit_gib: limit as f64 / (1u128 << 30) as f64,
+        }
+        .into());
+    }
+    Ok(bytes)
 }
 
 /// Runs one seed: learning under delay, greedy evaluation, then the baseline.
@@ -507,17 +538,7 @@ pub fn run_all(
     let limit = memory_limit(parallel);
     // Refuse before allocating anything.
     {
-        let (n_s, n_a) = (world.num_cells(), 4);
-        let (entries, bytes) = cfg.learner.table_bytes(n_s, n_a);
-        if bytes > limit {
-            return Err(mmq_learn::LearnError::TooLarge {
-                learner: cfg.learner.kind.name(),
-                entries,
-                need_gib: bytes as f64 / (1u128 << 30) as f64,
-                limit_gib: limit as f64 / (1u128 << 30) as f64,
-            }
-            .into());
-        }
+        let bytes = check_tables_fit(cfg, world, limit)?;
         // The tables of every seed are kept until the outputs are written: all of them
         // must fit too (`--seeds 1000000` of the 9×9 MMQ would ask for 130 GB).
         let kept = if cfg.save_tables { bytes * seeds.len() as u128 } else { 0 };
@@ -578,4 +599,30 @@ pub fn describe(spec: &LearnerSpec) -> String {
             _ => String::new(),
         }
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    use super::*;
+
+    #[test]
+    fn the_memory_check_counts_the_environments_true_table() {
+        let world = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml"));
+        let grid = RunConfig { world, ..RunConfig::default() };
+        let heading =
+            RunConfig { env: EnvKind::Robot, robot: vec!["actions=heading".into()], ..grid.clone() };
+        let (gw, hw) = (grid.load_world().unwrap(), heading.load_world().unwrap());
+        // 81 cells: the grid's 81 × 4 pairs; the heading robot's (81 × 4 headings) × 3.
+        assert_eq!(table_shape(&grid, &gw).unwrap(), (81, 4));
+        assert_eq!(table_shape(&heading, &hw).unwrap(), (324, 3));
+        let need = check_tables_fit(&grid, &gw, u128::MAX).unwrap();
+        // Three times the pairs (and 4× the states): the 4-action count was a third.
+        let h = check_tables_fit(&heading, &hw, u128::MAX).unwrap();
+        assert!(h > 2 * need && h < 4 * need, "{h} against {need}");
+        assert!(check_tables_fit(&grid, &gw, need).is_ok());
+        let e = check_tables_fit(&heading, &hw, need).unwrap_err().to_string();
+        assert!(e.contains("mmq"), "{e}");
+    }
 }

@@ -140,6 +140,16 @@ pub enum ActionSet {
     Heading,
 }
 
+impl ActionSet {
+    /// The learner's table shape on a world of `cells` cells: (states, actions).
+    pub fn table_shape(self, cells: usize) -> (usize, usize) {
+        match self {
+            ActionSet::Moves => (cells, 4),
+            ActionSet::Heading => (cells * 4, 3),
+        }
+    }
+}
+
 /// Optional actuation noise, drawn from the environment's random stream (the seed given
 /// to `reset`). Present in the `[robot.noise]` table ⇒ on; fields default as documented.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -101,17 +101,11 @@ impl Core {
     }
 
     pub fn num_states(&self) -> usize {
-        match self.cfg.actions {
-            ActionSet::Moves => self.world.num_cells(),
-            ActionSet::Heading => self.world.num_cells() * 4,
-        }
+        self.cfg.actions.table_shape(self.world.num_cells()).0
     }
 
     pub fn num_actions(&self) -> usize {
-        match self.cfg.actions {
-            ActionSet::Moves => 4,
-            ActionSet::Heading => 3,
-        }
+        self.cfg.actions.table_shape(self.world.num_cells()).1
     }
 
     pub fn state_cell(&self, state: State) -> usize {

@@ -16,7 +16,7 @@ use super::store::{finish_dir, read_job, write_job};
 use crate::config::RunConfig;
 use crate::error::LabError;
 use crate::output::write_atomic;
-use crate::runner::{Control, SeedResult, Trajectory, memory_limit, run_seed};
+use crate::runner::{Control, SeedResult, Trajectory, check_tables_fit, memory_limit, run_seed};
 use crate::summary::seed_metrics;
 
 /// What a sweep reports while it runs (the CLI prints it).
@@ -164,17 +164,7 @@ pub fn run_sweep(
     for &j in &pending {
         let c = plan.job(j).0;
         if checked.insert(c) {
-            let cfg = spec.config(c);
-            let (entries, bytes) = cfg.learner.table_bytes(spec.world(c).num_cells(), 4);
-            if bytes > limit {
-                return Err(mmq_learn::LearnError::TooLarge {
-                    learner: cfg.learner.kind.name(),
-                    entries,
-                    need_gib: bytes as f64 / (1u128 << 30) as f64,
-                    limit_gib: limit as f64 / (1u128 << 30) as f64,
-                }
-                .into());
-            }
+            check_tables_fit(&spec.config(c), spec.world(c), limit)?;
         }
     }
 
