@@ -164,7 +164,7 @@ pub fn run_sweep(
     for &j in &pending {
         let c = plan.job(j).0;
         if checked.insert(c) {
-            check_tables_fit(&spec.config(c), spec.world(c), limit)?;
+            check_tables_fit(spec.config(c), spec.world(c), limit)?;
         }
     }
 
