@@ -453,38 +453,47 @@ mod tests {
         }
     }
 
-    /// (M2) by hand. One state, one action (pair 0, taken every step), told p̂ = (½, ½)
-    /// (K = 1): c(0) = ¼, c(1) = ½. Deliveries 0, 4, 0, 4 with ψ = (½, 1, 1, 1): the first
-    /// refit (t = 4) finds R̂ = Σψr / Σψ² = 8 / 3.25 with RSS = 32 − 8² / 3.25 = 160/13,
-    /// so σ̂² = RSS / 4 = 40/13 and, with v_max = 4, σ̂² / v_max² = 5/26. The visits at
-    /// u = 0, 1, 2 have been seen at both lags and the one at u = 3 at lag 0 only:
-    /// I = 3·½ + ¼ = 1.75. Known ⇔ 1.75 ≥ z²·5/26 ⇔ z ≤ 3.0166: z = 3 plans R̂ + γ V,
-    /// z = 3.05 keeps q0. Before the refit (σ̂ unknown, I* = 0) one visit is enough.
+    /// (M2) by hand. One state, two actions (pairs 0 and 1), told p̂ = (½, ½) (K = 1):
+    /// c(0) = ¼, c(1) = ½. Pair 0 is taken four times with deliveries 0, 4, 0, 4; before
+    /// the first refit I* = 0 and one visit makes it known (and latched). With
+    /// ψ = (½, 1, 1, 1) the refit at t = 4 finds R̂(0) = Σψr / Σψ² = 8 / 3.25 with
+    /// RSS = 32 − 8² / 3.25 = 160/13, so σ̂² = RSS / 4 = 40/13 and, with v_max = 4,
+    /// I* = z² σ̂² / v_max² = z²·5/26. Then pair 1 is taken three times (deliveries 0; the
+    /// next refit is at t = 8): after the second, I(1) = ½ + ¼ = 0.75, after the third
+    /// ½ + ½ + ¼ = 1.25. Known ⇔ 1.25 ≥ z²·5/26 ⇔ z ≤ 2.5495: at z = 2.5 pair 1
+    /// is known after three visits and not after two (0.75 < 1.2019), at z = 2.6 it is
+    /// still optimistic (q0) after three (1.25 < 1.3).
     #[test]
     fn confidence_rule_by_hand() {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 100.0 };
         let mut cfg = tiny_config();
         cfg.refit_every = 4;
         let run = |z: f64| {
-            let mut l = DeconvModel::new(p, cfg.clone(), 1000, Probes::OFF, 1, 1).with_confidence(z);
-            for (t, r) in [0.0, 4.0, 0.0].into_iter().enumerate() {
-                l.observe(&exp(t as u64, 0, 0, 0, r));
-            }
-            // Three visits, no refit yet: I* = 0 and the pair is known; R̂ = 0.
+            let mut l = DeconvModel::new(p, cfg.clone(), 1000, Probes::OFF, 1, 2).with_confidence(z);
+            l.observe(&exp(0, 0, 0, 0, 0.0));
             assert_eq!(l.information_needed(), Some(0.0));
-            assert!((l.information(0).unwrap() - (0.5 + 0.5 + 0.25)).abs() < 1e-12);
-            assert!(l.known(0) && l.q(0, 0) < 100.0, "Q {}", l.q(0, 0));
-            l.observe(&exp(3, 0, 0, 0, 4.0));
+            assert!((l.information(0).unwrap() - 0.25).abs() < 1e-12);
+            assert!(l.known(0) && !l.known(1) && l.q(0, 0) < 100.0 && l.q(0, 1) == 100.0);
+            for (t, r) in [(1, 4.0), (2, 0.0), (3, 4.0)] {
+                l.observe(&exp(t, 0, 0, 0, r));
+            }
             assert!((l.deconvolver().reward(0) - 8.0 / 3.25).abs() < 1e-9);
             assert!((l.information(0).unwrap() - 1.75).abs() < 1e-12);
             assert!((l.information_needed().unwrap() - z * z * 5.0 / 26.0).abs() < 1e-9);
+            for t in 4..6 {
+                l.observe(&exp(t, 0, 1, 0, 0.0));
+            }
+            assert!((l.information(1).unwrap() - 0.75).abs() < 1e-12);
+            assert!(!l.known(1) && l.q(0, 1) == 100.0);
+            l.observe(&exp(6, 0, 1, 0, 0.0));
+            assert!((l.information(1).unwrap() - 1.25).abs() < 1e-12);
             l
         };
-        let l = run(3.0);
-        assert!(l.known(0) && l.q(0, 0) < 100.0, "Q {}", l.q(0, 0));
-        let l = run(3.05);
-        assert!(!l.known(0));
-        assert_eq!(l.q(0, 0), 100.0);
+        let l = run(2.5);
+        assert!(l.known(1) && l.q(0, 1) < 100.0, "Q {}", l.q(0, 1));
+        let l = run(2.6);
+        assert!(!l.known(1));
+        assert_eq!(l.q(0, 1), 100.0);
     }
 
     /// A pair never tried keeps q0 (optimism) and the greedy action goes there.
