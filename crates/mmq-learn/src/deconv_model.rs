@@ -30,7 +30,8 @@
 //! a sharp delay (Σ p̂(k)² is 0.078 for Poisson 13, 0.02 for a flat pmf on 0..=50): so a
 //! pair needs few visits while rewards are rare and the delay is sharp, and more
 //! once the goal's deliveries crowd the channel. σ̂, v_max and p̂ are those of the last
-//! refit; I(x) is updated every step. Once known, a pair stays known (as under a count):
+//! refit (before the first, σ̂² = Σ r² / t, updated every step); I(x) is updated every
+//! step. Once known, a pair stays known (as under a count):
 //! a rise of σ̂ as the goal is found more often does not send the agent back to pairs it
 //! has already learned. The fixed count (`optimism_confidence` = 0) is
 //! still available: a pair is known once N(x) ≥ m = `optimism_visits`.
@@ -231,11 +232,12 @@ impl DeconvModel {
         self.confidence.as_ref().map(|c| c.needed)
     }
 
-    /// Whether pair `x` is known: (M2), or tried ≥ max(m, 1) times under the fixed count.
+    /// Whether pair `x` is known: by (M2) at a refit so far, or tried ≥ max(m, 1) times
+    /// under the fixed count.
     pub fn known(&self, x: usize) -> bool {
-        match (&self.confidence, self.information(x)) {
-            (Some(c), Some(info)) => c.latched[x] || (self.tries[x] >= 1 && info >= c.needed),
-            _ => self.tries[x] >= self.optimism_visits.max(1),
+        match &self.confidence {
+            Some(c) => c.latched[x],
+            None => self.tries[x] >= self.optimism_visits.max(1),
         }
     }
 
@@ -271,7 +273,8 @@ impl DeconvModel {
         let (a_n, gamma, q0, m) = (self.q.num_actions(), self.p.gamma, self.p.q0, self.optimism_visits);
         let mut confidence = self.confidence.take();
         if let Some(c) = confidence.as_mut() {
-            if c.refits != Some(self.deconv.refits()) {
+            // Before the first fit σ̂² is Σ r² / t (an upper bound), which changes every step.
+            if c.refits != Some(self.deconv.refits()) || self.deconv.refits() == 0 {
                 c.update(&self.deconv);
             }
             c.fill_deficits();
@@ -455,7 +458,8 @@ mod tests {
 
     /// (M2) by hand. One state, two actions (pairs 0 and 1), told p̂ = (½, ½) (K = 1):
     /// c(0) = ¼, c(1) = ½. Pair 0 is taken four times with deliveries 0, 4, 0, 4; before
-    /// the first refit I* = 0 and one visit makes it known (and latched). With
+    /// the first refit σ̂² = Σ r² / t: 0 after the first step (I* = 0, one visit makes
+    /// pair 0 known, and it stays known), 16 / 2 after the second (I* = z²·½). With
     /// ψ = (½, 1, 1, 1) the refit at t = 4 finds R̂(0) = Σψr / Σψ² = 8 / 3.25 with
     /// RSS = 32 − 8² / 3.25 = 160/13, so σ̂² = RSS / 4 = 40/13 and, with v_max = 4,
     /// I* = z² σ̂² / v_max² = z²·5/26. Then pair 1 is taken three times (deliveries 0; the
@@ -474,7 +478,10 @@ mod tests {
             assert_eq!(l.information_needed(), Some(0.0));
             assert!((l.information(0).unwrap() - 0.25).abs() < 1e-12);
             assert!(l.known(0) && !l.known(1) && l.q(0, 0) < 100.0 && l.q(0, 1) == 100.0);
-            for (t, r) in [(1, 4.0), (2, 0.0), (3, 4.0)] {
+            // Before the first fit σ̂² = Σ r² / t: 16 / 2 after the second step, v_max = 4.
+            l.observe(&exp(1, 0, 0, 0, 4.0));
+            assert!((l.information_needed().unwrap() - z * z * 0.5).abs() < 1e-12);
+            for (t, r) in [(2, 0.0), (3, 4.0)] {
                 l.observe(&exp(t, 0, 0, 0, r));
             }
             assert!((l.deconvolver().reward(0) - 8.0 / 3.25).abs() < 1e-9);
