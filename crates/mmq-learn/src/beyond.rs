@@ -79,10 +79,13 @@ pub struct BeyondParams {
     /// `deconv-model`: z ≥ 0, exploration from confidence: a pair keeps its optimistic
     /// value q0 (R-max style) until the reward fit's standard error of its reward is at
     /// most 1/z of the largest reward value found, so that a reward that large there would
-    /// lie z standard errors from zero ([`crate::deconv_model`], (M2)). Default 2. 0: the
-    /// fixed count `optimism_visits` instead.
+    /// lie z standard errors from zero ([`crate::deconv_model`], (M2)); 2 is about a 95 %
+    /// interval. Default 0 (off): the fixed count `optimism_visits`. z = 2 gained 1.2 / 1.4
+    /// points on 9×9 at Poisson 13 (ε 0.05 / 0.1) but cost the maze 30 / 15 points of the
+    /// optimum earned while learning and lost a seed on the mixture delay
+    /// (docs/algorithms/deconv-model.md, "Exploration from confidence").
     pub optimism_confidence: f64,
-    /// `deconv-model-time`, and `deconv-model` with `optimism_confidence` = 0: a pair
+    /// `deconv-model-time`, and `deconv-model` unless `optimism_confidence` > 0: a pair
     /// tried fewer times than this keeps its optimistic value q0 (R-max style
     /// exploration); 0 plans with every pair's estimate at once.
     pub optimism_visits: u32,
@@ -142,7 +145,7 @@ impl Default for BeyondParams {
             pmf_prior: 5.0,
             pmf_smoothness: 0.0,
             refit_every: 250,
-            optimism_confidence: 2.0,
+            optimism_confidence: 0.0,
             optimism_visits: 10,
             probe_rate: 0.02,
             probe_precision: 0.5,

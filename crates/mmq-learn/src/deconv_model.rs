@@ -9,7 +9,9 @@
 //! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) max_a' Q(s', a')  otherwise          (M1)
 //! ```
 //!
-//! *Exploration from confidence* (the default, z = `optimism_confidence` > 0). A pair
+//! The default is a fixed count: a pair is known once N(x) ≥ m = `optimism_visits`.
+//!
+//! *Exploration from confidence* (z = `optimism_confidence` > 0; off by default). A pair
 //! stays optimistic (R-max style, on top of ε-greedy) until the reward fit could tell
 //! its reward apart from one of the largest size in the world. Under the delay estimate
 //! p̂ each visit u of x contributes ψ_t(x) = p̂(t − u) to the fit's regressor at step t
@@ -33,8 +35,7 @@
 //! refit (before the first, σ̂² = Σ r² / t, updated every step); I(x) is updated every
 //! step. Once known, a pair stays known (as under a count):
 //! a rise of σ̂ as the goal is found more often does not send the agent back to pairs it
-//! has already learned. The fixed count (`optimism_confidence` = 0) is
-//! still available: a pair is known once N(x) ≥ m = `optimism_visits`.
+//! has already learned.
 //!
 //! *Delay probes.* A policy that has learned to avoid costs also stops producing the
 //! rewards that date the delay best: its goal rewards come at a near-constant period, and
