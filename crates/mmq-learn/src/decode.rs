@@ -135,6 +135,8 @@ pub struct ValueDeconvolver {
     next_refit: u64,
     /// Rebuilds of the per-value deconvolvers.
     rebuilds: u64,
+    /// The largest |delivered reward| so far.
+    max_delivery: f64,
 }
 
 impl ValueDeconvolver {
@@ -154,6 +156,7 @@ impl ValueDeconvolver {
             cache: HashMap::new(),
             next_refit: 0,
             rebuilds: 0,
+            max_delivery: 0.0,
         }
     }
 
@@ -178,6 +181,30 @@ impl ValueDeconvolver {
         self.parts[0].median_se()
     }
 
+    /// (σ̂ / v)²: the noise of the deliveries relative to the largest reward, which sets
+    /// how much information a pair's reward needs before a reward that large would stand
+    /// out ([`crate::deconv_model`], (M2)). σ̂² is the residual variance per step of the
+    /// reward fit, summed over the per-value fits (their noises are independent parts of
+    /// each delivery); v is the largest reward value found, or before two values are
+    /// found the largest delivery seen. 0 before any non-zero delivery.
+    pub fn noise_to_scale(&self) -> f64 {
+        let v = if self.values.is_empty() {
+            self.max_delivery
+        } else {
+            self.values.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
+        };
+        if v <= 0.0 {
+            return 0.0;
+        }
+        let sigma2: f64 = self.parts.iter().map(Deconvolver::noise_variance).sum();
+        sigma2 / (v * v)
+    }
+
+    /// Refits of the reward fit so far.
+    pub fn refits(&self) -> u64 {
+        self.parts[0].refits()
+    }
+
     /// The reward values found (empty until two are).
     pub fn values(&self) -> &[f64] {
         &self.values
@@ -191,6 +218,7 @@ impl ValueDeconvolver {
     /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
     /// Refits when due; returns true when it did.
     pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
+        self.max_delivery = self.max_delivery.max(reward.abs());
         if !self.cfg.decode_values {
             return self.parts[0].observe_transition(x, next_state, reward);
         }

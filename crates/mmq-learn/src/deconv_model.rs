@@ -5,12 +5,37 @@
 //!
 //! ```text
 //! P̂(s' | s, a) = N(s, a, s') / N(s, a)
-//! Q(s, a) = q0                                              if N(s, a) < m
+//! Q(s, a) = q0                                              if (s, a) is not yet known
 //! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) max_a' Q(s', a')  otherwise          (M1)
 //! ```
 //!
-//! m = `optimism_visits`: pairs tried fewer times keep the optimistic q0 (R-max style),
-//! which drives exploration on top of ε-greedy.
+//! The default is a fixed count: a pair is known once N(x) ≥ m = `optimism_visits`.
+//!
+//! *Exploration from confidence* (z = `optimism_confidence` > 0; off by default). A pair
+//! stays optimistic (R-max style, on top of ε-greedy) until the reward fit could tell
+//! its reward apart from one of the largest size in the world. Under the delay estimate
+//! p̂ each visit u of x contributes ψ_t(x) = p̂(t − u) to the fit's regressor at step t
+//! (after t − u steps), so after the steps seen so far (the last at t − 1) x carries the
+//! information (the diagonal of the fit's Gram matrix, without the cross terms of visits
+//! less than K steps apart)
+//!
+//! ```text
+//! I(x) = Σ_{visits u of x} c(t − 1 − u),   c(j) = Σ_{k=0..min(j, K)} p̂(k)²
+//! x is known  ⇔  N(x) ≥ 1  and  z σ̂ / √I(x) ≤ v_max  ⇔  I(x) ≥ z² σ̂² / v_max²   (M2)
+//! ```
+//!
+//! σ̂/√I(x) is the standard error of R̂(x) under the reward fit's covariance σ̂² G⁻¹ (its
+//! diagonal, the others held fixed), σ̂² the fit's residual variance per step
+//! ([`crate::decode::ValueDeconvolver::noise_to_scale`]) and v_max the largest reward value
+//! found: a pair is known once a reward as large as any seen would lie z standard errors
+//! from zero. Noise grows with the rewards collected, and the information of a visit with
+//! a sharp delay (Σ p̂(k)² is 0.078 for Poisson 13, 0.02 for a flat pmf on 0..=50): so a
+//! pair needs few visits while rewards are rare and the delay is sharp, and more
+//! once the goal's deliveries crowd the channel. σ̂, v_max and p̂ are those of the last
+//! refit (before the first, σ̂² = Σ r² / t, updated every step); I(x) is updated every
+//! step. Once known, a pair stays known (as under a count):
+//! a rise of σ̂ as the goal is found more often does not send the agent back to pairs it
+//! has already learned.
 //!
 //! *Delay probes.* A policy that has learned to avoid costs also stops producing the
 //! rewards that date the delay best: its goal rewards come at a near-constant period, and
@@ -19,9 +44,9 @@
 //! steps and, on the probability scale, above [`PROBE_CDF_PRECISION`]), a probe falls
 //! due with probability `probe_rate` per step; a due probe is taken at the first step that
 //! is not ε-exploration in a state with an action known to keep the agent in place at a
-//! cost (tried ≥ max(m, 1) times, never led elsewhere, R̂ < 0: a wall bump). The cost
-//! leaves at a time drawn at random and reaches the agent one delay later: a sample of
-//! the delay that the period does not alias.
+//! cost (known by (M2), or tried ≥ max(m, 1) times under the fixed count, never led
+//! elsewhere, R̂ < 0: a wall bump). The cost leaves at a time drawn at random and reaches
+//! the agent one delay later: a sample of the delay that the period does not alias.
 
 use mmq_core::{Action, Rng, State};
 use rand::RngExt;
@@ -51,6 +76,86 @@ pub struct DeconvModel {
     probe_due: bool,
     /// Probes taken.
     probes_taken: u64,
+    /// The confidence rule (M2), when on (else the fixed count `optimism_visits`).
+    confidence: Option<Confidence>,
+}
+
+/// The state of the confidence rule (M2).
+#[derive(Clone, Debug)]
+struct Confidence {
+    /// z.
+    z: f64,
+    /// c(j) = Σ_{k ≤ j} p̂(k)², j = 0..=K (c(K) = Σ p̂²).
+    cum: Vec<f64>,
+    /// I* = z² σ̂² / v_max².
+    needed: f64,
+    /// The deconvolver's refits when `cum` and `needed` were computed (None: never).
+    refits: Option<u64>,
+    /// The pairs of the last K steps, the latest last.
+    recent: std::collections::VecDeque<u32>,
+    /// Scratch: c(K) − I(x) of the pairs in `recent` (0 elsewhere).
+    deficit: Vec<f64>,
+    /// Pairs known once: they stay known.
+    latched: Vec<bool>,
+}
+
+impl Confidence {
+    fn new(z: f64, pairs: usize) -> Self {
+        Self {
+            z,
+            cum: Vec::new(),
+            needed: 0.0,
+            refits: None,
+            recent: std::collections::VecDeque::new(),
+            deficit: vec![0.0; pairs],
+            latched: vec![false; pairs],
+        }
+    }
+
+    /// Recomputes c(j) and I* from the deconvolver's last fit.
+    fn update(&mut self, d: &ValueDeconvolver) {
+        let mut acc = 0.0;
+        self.cum = d
+            .pmf()
+            .iter()
+            .map(|p| {
+                acc += p * p;
+                acc
+            })
+            .collect();
+        self.needed = self.z * self.z * d.noise_to_scale();
+        self.refits = Some(d.refits());
+    }
+
+    /// Σ p̂(k)².
+    fn a0(&self) -> f64 {
+        self.cum.last().copied().unwrap_or(0.0)
+    }
+
+    /// Fills `deficit` with Σ over the recent visits of x of c(K) − c(lag): the part of
+    /// their information still in flight.
+    fn fill_deficits(&mut self) {
+        let (a0, len) = (self.a0(), self.recent.len());
+        for (j, &x) in self.recent.iter().enumerate() {
+            let lag = len - 1 - j;
+            self.deficit[x as usize] += a0 - self.cum[lag.min(self.cum.len() - 1)];
+        }
+    }
+
+    fn clear_deficits(&mut self) {
+        for &x in &self.recent {
+            self.deficit[x as usize] = 0.0;
+        }
+    }
+
+    /// Whether pair `x`, tried `n` times, is known by (M2), with `deficit` filled;
+    /// latches it when it is.
+    fn known(&mut self, x: usize, n: u32) -> bool {
+        if !self.latched[x] && n >= 1 && self.a0() * f64::from(n) - self.deficit[x] >= self.needed {
+            self.latched[x] = true;
+        }
+        self.latched[x]
+    }
 }
 
 /// Probes also stop once the probability below the median has at most this standard
@@ -95,6 +200,45 @@ impl DeconvModel {
             probes,
             probe_due: false,
             probes_taken: 0,
+            confidence: None,
+        }
+    }
+
+    /// The same model with exploration from confidence (M2) at z standard errors
+    /// (z > 0; the fixed count of `new` is then unused).
+    pub fn with_confidence(mut self, z: f64) -> Self {
+        let mut c = Confidence::new(z, self.tries.len());
+        c.update(&self.deconv);
+        self.confidence = Some(c);
+        self
+    }
+
+    /// I(x) of (M2): the information on R̂(x) from the steps seen so far (None under the
+    /// fixed count).
+    pub fn information(&self, x: usize) -> Option<f64> {
+        let c = self.confidence.as_ref()?;
+        let (a0, len) = (c.a0(), c.recent.len());
+        let deficit: f64 = c
+            .recent
+            .iter()
+            .enumerate()
+            .filter(|&(_, &y)| y as usize == x)
+            .map(|(j, _)| a0 - c.cum[(len - 1 - j).min(c.cum.len() - 1)])
+            .sum();
+        Some(a0 * f64::from(self.tries[x]) - deficit)
+    }
+
+    /// I* of (M2): the information a pair needs to be known (None under the fixed count).
+    pub fn information_needed(&self) -> Option<f64> {
+        self.confidence.as_ref().map(|c| c.needed)
+    }
+
+    /// Whether pair `x` is known: by (M2) at a refit so far, or tried ≥ max(m, 1) times
+    /// under the fixed count.
+    pub fn known(&self, x: usize) -> bool {
+        match &self.confidence {
+            Some(c) => c.latched[x],
+            None => self.tries[x] >= self.optimism_visits.max(1),
         }
     }
 
@@ -113,14 +257,13 @@ impl DeconvModel {
         &mut self.deconv
     }
 
-    /// The first action of `s` that is a possible delay probe: tried at least
-    /// max(m, 1) times, only ever led back to `s`, and R̂ < 0.
+    /// The first action of `s` that is a possible delay probe: known ([`Self::known`]),
+    /// only ever led back to `s`, and R̂ < 0.
     pub fn probe_action(&self, s: State) -> Option<Action> {
         let a_n = self.q.num_actions();
-        let m = self.optimism_visits.max(1);
         (0..a_n).find(|&a| {
             let i = s * a_n + a;
-            self.tries[i] >= m
+            self.known(i)
                 && matches!(self.next[i][..], [(s2, _)] if s2 as usize == s)
                 && self.deconv.reward(i) < 0.0
         })
@@ -129,12 +272,24 @@ impl DeconvModel {
     /// One Gauss–Seidel sweep of (M1) over every state, in state order.
     pub fn plan(&mut self) {
         let (a_n, gamma, q0, m) = (self.q.num_actions(), self.p.gamma, self.p.q0, self.optimism_visits);
+        let mut confidence = self.confidence.take();
+        if let Some(c) = confidence.as_mut() {
+            // Before the first fit σ̂² is Σ r² / t (an upper bound), which changes every step.
+            if c.refits != Some(self.deconv.refits()) || self.deconv.refits() == 0 {
+                c.update(&self.deconv);
+            }
+            c.fill_deficits();
+        }
         for s in 0..self.v.len() {
             let mut best = f64::NEG_INFINITY;
             for a in 0..a_n {
                 let i = s * a_n + a;
                 let n = self.tries[i];
-                let q = if n < m || n == 0 {
+                let optimistic = match confidence.as_mut() {
+                    Some(c) => !c.known(i, n),
+                    None => n < m || n == 0,
+                };
+                let q = if optimistic {
                     q0
                 } else {
                     let inv = 1.0 / n as f64;
@@ -147,6 +302,10 @@ impl DeconvModel {
             }
             self.v[s] = best;
         }
+        if let Some(c) = confidence.as_mut() {
+            c.clear_deficits();
+        }
+        self.confidence = confidence;
     }
 }
 
@@ -182,6 +341,12 @@ impl Learner for DeconvModel {
         let i = self.q.index(e.state, e.action);
         self.deconv.observe_transition(i, e.next_state, e.reward);
         self.tries[i] += 1;
+        if let Some(c) = self.confidence.as_mut() {
+            c.recent.push_back(i as u32);
+            if c.recent.len() > c.cum.len().max(1) {
+                c.recent.pop_front();
+            }
+        }
         let s2 = e.next_state as u32;
         match self.next[i].iter_mut().find(|x| x.0 == s2) {
             Some(x) => x.1 += 1,
@@ -213,6 +378,11 @@ impl Learner for DeconvModel {
 
     fn reset_history(&mut self) {
         self.deconv.reset_history();
+        // The deliveries still in flight are lost with the run; (M2) counts those visits
+        // as complete (a slight overstatement of I(x), once per run).
+        if let Some(c) = self.confidence.as_mut() {
+            c.recent.clear();
+        }
     }
 }
 
@@ -285,6 +455,53 @@ mod tests {
             let d = l.act(0, &mut rng);
             assert_eq!((d.action, d.explored), (1, false), "{probes:?}");
         }
+    }
+
+    /// (M2) by hand. One state, two actions (pairs 0 and 1), told p̂ = (½, ½) (K = 1):
+    /// c(0) = ¼, c(1) = ½. Pair 0 is taken four times with deliveries 0, 4, 0, 4; before
+    /// the first refit σ̂² = Σ r² / t: 0 after the first step (I* = 0, one visit makes
+    /// pair 0 known, and it stays known), 16 / 2 after the second (I* = z²·½). With
+    /// ψ = (½, 1, 1, 1) the refit at t = 4 finds R̂(0) = Σψr / Σψ² = 8 / 3.25 with
+    /// RSS = 32 − 8² / 3.25 = 160/13, so σ̂² = RSS / 4 = 40/13 and, with v_max = 4,
+    /// I* = z² σ̂² / v_max² = z²·5/26. Then pair 1 is taken three times (deliveries 0; the
+    /// next refit is at t = 8): after the second, I(1) = ½ + ¼ = 0.75, after the third
+    /// ½ + ½ + ¼ = 1.25. Known ⇔ 1.25 ≥ z²·5/26 ⇔ z ≤ 2.5495: at z = 2.5 pair 1
+    /// is known after three visits and not after two (0.75 < 1.2019), at z = 2.6 it is
+    /// still optimistic (q0) after three (1.25 < 1.3).
+    #[test]
+    fn confidence_rule_by_hand() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 100.0 };
+        let mut cfg = tiny_config();
+        cfg.refit_every = 4;
+        let run = |z: f64| {
+            let mut l = DeconvModel::new(p, cfg.clone(), 1000, Probes::OFF, 1, 2).with_confidence(z);
+            l.observe(&exp(0, 0, 0, 0, 0.0));
+            assert_eq!(l.information_needed(), Some(0.0));
+            assert!((l.information(0).unwrap() - 0.25).abs() < 1e-12);
+            assert!(l.known(0) && !l.known(1) && l.q(0, 0) < 100.0 && l.q(0, 1) == 100.0);
+            // Before the first fit σ̂² = Σ r² / t: 16 / 2 after the second step, v_max = 4.
+            l.observe(&exp(1, 0, 0, 0, 4.0));
+            assert!((l.information_needed().unwrap() - z * z * 0.5).abs() < 1e-12);
+            for (t, r) in [(2, 0.0), (3, 4.0)] {
+                l.observe(&exp(t, 0, 0, 0, r));
+            }
+            assert!((l.deconvolver().reward(0) - 8.0 / 3.25).abs() < 1e-9);
+            assert!((l.information(0).unwrap() - 1.75).abs() < 1e-12);
+            assert!((l.information_needed().unwrap() - z * z * 5.0 / 26.0).abs() < 1e-9);
+            for t in 4..6 {
+                l.observe(&exp(t, 0, 1, 0, 0.0));
+            }
+            assert!((l.information(1).unwrap() - 0.75).abs() < 1e-12);
+            assert!(!l.known(1) && l.q(0, 1) == 100.0);
+            l.observe(&exp(6, 0, 1, 0, 0.0));
+            assert!((l.information(1).unwrap() - 1.25).abs() < 1e-12);
+            l
+        };
+        let l = run(2.5);
+        assert!(l.known(1) && l.q(0, 1) < 100.0, "Q {}", l.q(0, 1));
+        let l = run(2.6);
+        assert!(!l.known(1));
+        assert_eq!(l.q(0, 1), 100.0);
     }
 
     /// A pair never tried keeps q0 (optimism) and the greedy action goes there.

@@ -314,17 +314,21 @@ impl LearnerSpec {
                 num_states,
                 num_actions,
             )),
-            LearnerKind::DeconvModel => Box::new(DeconvModel::new(
-                p,
-                crate::beyond::deconv_config(self)?,
-                self.beyond.optimism_visits,
-                crate::deconv_model::Probes {
-                    rate: self.beyond.probe_rate,
-                    precision: self.beyond.probe_precision,
-                },
-                num_states,
-                num_actions,
-            )),
+            LearnerKind::DeconvModel => {
+                let l = DeconvModel::new(
+                    p,
+                    crate::beyond::deconv_config(self)?,
+                    self.beyond.optimism_visits,
+                    crate::deconv_model::Probes {
+                        rate: self.beyond.probe_rate,
+                        precision: self.beyond.probe_precision,
+                    },
+                    num_states,
+                    num_actions,
+                );
+                let z = self.beyond.optimism_confidence;
+                Box::new(if z > 0.0 { l.with_confidence(z) } else { l })
+            }
             LearnerKind::DeconvModelTime => Box::new(crate::deconv_model_time::DeconvModelTime::new(
                 p,
                 crate::beyond::deconv_config(self)?,

@@ -289,6 +289,12 @@ impl Deconvolver {
         (self.stats.count_bytes(), self.stats.triples())
     }
 
+    /// σ̂²: the residual variance per step of the last fit of R (RSS / t), or Σ r² / t
+    /// before the first fit (an upper bound); 0 before any step.
+    pub fn noise_variance(&self) -> f64 {
+        self.rss.unwrap_or(self.stats.sum_r2).max(0.0) / self.stats.t.max(1) as f64
+    }
+
     /// Refits so far.
     pub fn refits(&self) -> u64 {
         self.refits
