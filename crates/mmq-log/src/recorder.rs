@@ -443,15 +443,22 @@ impl McapRecorder {
         self.writer = None;
     }
 
-    /// Writes one message, whose bytes `write` appends.
-    fn emit(&mut self, ch: Ch, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
+    /// Where a message on `ch` goes now: `Some(live)` when it goes anywhere (to the
+    /// file if there is one, and to the live view when `live`: its thinning then counts
+    /// it as sent, so emit it next), `None` when nowhere (then it need not be built).
+    fn route(&mut self, ch: Ch) -> Option<bool> {
         let i = ch as usize;
         // The estimate's `/tf` and pose go live with their pose sample, or not at all.
         let live_ok = !matches!(ch, Ch::Tf | Ch::PoseEstimate) || self.live_pose;
-        if let Some(live) = self.live.as_mut().filter(|_| live_ok)
-            && live.wants(i)
-        {
-            let bytes = live.send(i, log_time, write);
+        let live = live_ok && self.live.as_mut().is_some_and(|l| l.wants(i));
+        (live || self.writer.is_some()).then_some(live)
+    }
+
+    /// Writes one message routed by [`Self::route`], whose bytes `write` appends.
+    fn emit_routed(&mut self, ch: Ch, live: bool, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
+        let i = ch as usize;
+        if live && let Some(tap) = self.live.as_mut() {
+            let bytes = tap.send(i, log_time, write);
             let r = match self.writer.as_mut() {
                 Some(w) => w.message(self.channel_ids[i], log_time, |out| out.extend_from_slice(bytes)),
                 None if self.file => return,
@@ -472,10 +479,23 @@ impl McapRecorder {
     }
 
     fn write<T: Serialize>(&mut self, ch: Ch, log_time: u64, msg: &T) {
-        // Serializing our own plain structs into a Vec cannot fail.
-        self.emit(ch, log_time, |out| {
-            serde_json::to_writer(out, msg).expect("JSON serialization of a log message")
-        });
+        if let Some(live) = self.route(ch) {
+            // Serializing our own plain structs into a Vec cannot fail.
+            self.emit_routed(ch, live, log_time, |out| {
+                serde_json::to_writer(out, msg).expect("JSON serialization of a log message")
+            });
+        }
+    }
+
+    /// Writes the message `build` makes, building it only if it goes anywhere (a live
+    /// view thins what it sends; the file keeps every message).
+    fn write_with<T: Serialize>(&mut self, ch: Ch, log_time: u64, build: impl FnOnce(&Self) -> T) {
+        if let Some(live) = self.route(ch) {
+            let msg = build(self);
+            self.emit_routed(ch, live, log_time, |out| {
+                serde_json::to_writer(out, &msg).expect("JSON serialization of a log message")
+            });
+        }
     }
 
     /// Writes a scene: bytes serialized once and republished unchanged during the run.

@@ -21,12 +21,13 @@
 
 use std::collections::HashMap;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, Weak};
 use std::time::{Duration, Instant};
 
 use foxglove::websocket::{Capability, ChannelView, Client, ServerListener};
 use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema, WebSocketServerHandle};
+use mmq_core::StepGate;
 
 use crate::error::LogError;
 use crate::messages::{CHANNELS, LATCHED, LOG_CHANNEL, topics};
@@ -98,7 +99,9 @@ struct Shared {
     /// Slots thinned per topic to one message per [`LIVE_MIN_GAP`] (poses are thinned
     /// per sample instead; contacts and notes not at all).
     gated_slot: Vec<bool>,
-    clients: AtomicUsize,
+    /// Clients connected: open while there is one (the runner skips the steps of a
+    /// live-only run while it is closed).
+    clients: StepGate,
     /// A coarse wall clock for the thinning, milliseconds since the server started: set
     /// by a thread of its own every [`CLOCK_TICK`] while clients are connected (reading
     /// the system clock for every message cost more than the message on a busy machine).
@@ -119,7 +122,7 @@ fn run_clock(shared: Weak<Shared>) {
             return;
         }
         s.clock_ms.store(t0.elapsed().as_millis() as u64, Ordering::Relaxed);
-        let idle = s.clients.load(Ordering::Relaxed) == 0;
+        let idle = !s.clients.is_open();
         drop(s);
         std::thread::sleep(if idle { 10 * CLOCK_TICK } else { CLOCK_TICK });
     }
@@ -151,7 +154,7 @@ impl Shared {
             latched: Mutex::new(HashMap::new()),
             latched_slot,
             gated_slot,
-            clients: AtomicUsize::new(0),
+            clients: StepGate::new(),
             clock_ms: AtomicU64::new(0),
             ticking: AtomicBool::new(true),
         })
@@ -172,10 +175,10 @@ impl ServerListener for Listener {
         }
     }
     fn on_client_connect(&self) {
-        self.0.clients.fetch_add(1, Ordering::SeqCst);
+        self.0.clients.open();
     }
     fn on_client_disconnect(&self) {
-        let _ = self.0.clients.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1));
+        self.0.clients.close();
     }
 }
 
@@ -257,7 +260,7 @@ impl LiveServer {
 
     /// Clients connected now.
     pub fn clients(&self) -> usize {
-        self.shared.clients.load(Ordering::SeqCst)
+        self.shared.clients.count()
     }
 
     /// A tap for a recorder (one per run shown).
@@ -349,7 +352,13 @@ impl LiveTap {
 
     /// A client is connected.
     pub(crate) fn has_clients(&self) -> bool {
-        self.shared.clients.load(Ordering::Relaxed) > 0
+        self.shared.clients.is_open()
+    }
+
+    /// Open while a client is connected: a live-only recorder hands it to the runner,
+    /// which skips the steps while it is closed ([`mmq_core::Observer::step_gate`]).
+    pub(crate) fn gate(&self) -> StepGate {
+        self.shared.clients.clone()
     }
 
     /// The message of `slot` is worth serializing: it is latched (kept for later
