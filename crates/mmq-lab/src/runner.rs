@@ -297,7 +297,9 @@ fn learn<E: Env>(
     // An observer that sometimes wants no steps (a live view nobody watches): while its
     // gate is closed, no record is built and no call made.
     let gate = observer.as_ref().and_then(|o| o.step_gate());
-    let mut was_open = true;
+    // Whether the next step is observed (read at the end of the step before, so that a
+    // run without an observer pays nothing for it).
+    let mut open = gate.as_ref().is_none_or(StepGate::is_open);
     let table_every = (cfg.steps / 10).max(1);
     // Steps left until the next tables (a countdown, not a division per step).
     let mut tables_left = table_every;
@@ -319,13 +321,6 @@ fn learn<E: Env>(
             if observer.as_ref().is_some_and(|o| o.error().is_some()) {
                 break;
             }
-        }
-        let open = gate.as_ref().is_none_or(StepGate::is_open);
-        if open != was_open {
-            if open && let Some(o) = observer.as_mut() {
-                o.on_resume(&ch.resume_point());
-            }
-            was_open = open;
         }
         let d = learner.act(s, &mut rng);
         let st = ch.step(d.action).map_err(env_err)?;
@@ -361,6 +356,14 @@ fn learn<E: Env>(
                 tables_left = table_every;
                 let (visits, values) = cell_tables(ch.env(), &*learner, &traj.visits);
                 o.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);
+            }
+            if let Some(g) = &gate {
+                let was_open = open;
+                open = g.is_open();
+                if open && !was_open {
+                    // Where the run stands before the next step.
+                    o.on_resume(&ch.resume_point());
+                }
             }
         }
         window_left -= 1;

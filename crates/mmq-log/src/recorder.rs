@@ -30,7 +30,9 @@
 //! byte for byte with or without that thread.
 //!
 //! A recorder can also send every message to a live view ([`McapRecorder::with_live`],
-//! [`McapRecorder::live_only`]; see [`crate::live`]): the same bytes as the file.
+//! [`McapRecorder::live_only`]; see [`crate::live`]): the same bytes as the file. A
+//! message that goes nowhere (no file, and the live view's thinning holds it back) is
+//! not built.
 //!
 //! The code is split by concern: this file (configuration, output, finishing),
 //! `observe.rs` (what each observer hook writes), `scenes.rs` (the scene and grid
@@ -384,7 +386,11 @@ impl McapRecorder {
 
     /// A recorder that writes no file and shows the run in a live view only (`config`'s
     /// path is not used). While no client is connected it writes nothing but the latched
-    /// scenes, so the run is not slowed.
+    /// scenes and heat maps, and its step gate ([`mmq_core::Observer::step_gate`]) is
+    /// closed: the runner skips its steps, so the run is not slowed; when a client
+    /// connects it picks up the running totals from the runner
+    /// ([`mmq_core::Observer::on_resume`]). With a client, a message is built only when
+    /// the live view's thinning lets it through.
     pub fn live_only(config: RecorderConfig, live: LiveTap) -> Self {
         let mut stats = RecordStats::default();
         for i in 0..NCH {

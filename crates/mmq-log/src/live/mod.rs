@@ -7,9 +7,10 @@
 //!   ([`crate::McapRecorder::live_only`], [`crate::McapRecorder::with_live`]).
 //! - Latched topics ([`crate::messages::LATCHED`]: the scenes and heat maps) keep their
 //!   last message, which every new subscriber receives at once.
-//! - With no client connected the recorder writes nothing live (the run is not slowed);
-//!   with one, [`LiveConfig::speed`] paces the run to that many seconds of simulated time
-//!   per second of wall-clock time.
+//! - With no client connected the recorder writes nothing live and the runner skips a
+//!   live-only recorder's steps altogether (its step gate is the count of clients), so
+//!   the run is not slowed; with one, [`LiveConfig::speed`] paces the run to that many
+//!   seconds of simulated time per second of wall-clock time.
 //! - What a client gets is thinned for watching, the recording never: poses at most every
 //!   [`LIVE_POSE_PERIOD_NS`] of simulated time (10 Hz) and, like every other topic but
 //!   contacts and notes, and like the time updates, at most once per [`LIVE_MIN_GAP`] of
