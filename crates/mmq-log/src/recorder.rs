@@ -588,6 +588,9 @@ impl McapRecorder {
     }
 
     fn maybe_flush(&mut self) {
+        if self.writer.is_none() {
+            return;
+        }
         let steps = self.stats.steps_seen;
         let by_steps = self.config.flush_every_steps > 0
             && steps - self.last_flush_step >= self.config.flush_every_steps;

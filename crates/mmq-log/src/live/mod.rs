@@ -94,8 +94,8 @@ struct Shared {
     channels: Vec<Arc<RawChannel>>,
     /// Slot of each channel id.
     slots: HashMap<ChannelId, usize>,
-    /// Last message of each latched slot: (log time, bytes).
-    latched: Mutex<HashMap<usize, (u64, Vec<u8>)>>,
+    /// Last message of each latched slot, by slot: (log time, bytes).
+    latched: Mutex<Vec<Option<(u64, Vec<u8>)>>>,
     latched_slot: Vec<bool>,
     /// Slots thinned per topic to one message per [`LIVE_MIN_GAP`] (poses are thinned
     /// per sample instead; contacts and notes not at all).
@@ -152,7 +152,7 @@ impl Shared {
             _ctx: Arc::clone(ctx),
             channels,
             slots,
-            latched: Mutex::new(HashMap::new()),
+            latched: Mutex::new(vec![None; latched_slot.len()]),
             latched_slot,
             gated_slot,
             clients: StepGate::new(),
@@ -169,7 +169,7 @@ impl ServerListener for Listener {
     fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
         let Some(&slot) = self.0.slots.get(&channel.id()) else { return };
         let Some(sink) = client.sink_id() else { return };
-        let last = self.0.latched.lock().ok().and_then(|l| l.get(&slot).cloned());
+        let last = self.0.latched.lock().ok().and_then(|l| l.get(slot).cloned().flatten());
         if let Some((log_time, bytes)) = last {
             let meta = PartialMetadata { log_time: Some(log_time) };
             self.0.channels[slot].log_with_meta_to_sink(&bytes, meta, Some(sink));
@@ -323,10 +323,16 @@ pub struct LiveTap {
     last_sent: Vec<Option<u64>>,
 }
 
+/// Whether less than [`LIVE_MIN_GAP`] has passed from `last` to `now_ms`; times in
+/// milliseconds of the server's clock.
+fn within_gap(last: Option<u64>, now_ms: u64) -> bool {
+    last.is_some_and(|t| now_ms.saturating_sub(t) < LIVE_MIN_GAP.as_millis() as u64)
+}
+
 /// Whether [`LIVE_MIN_GAP`] has passed from `last` to `now_ms` (then `last` becomes
 /// `now_ms`); times in milliseconds of the server's clock.
 fn gap_passed(last: &mut Option<u64>, now_ms: u64) -> bool {
-    if last.is_some_and(|t| now_ms.saturating_sub(t) < LIVE_MIN_GAP.as_millis() as u64) {
+    if within_gap(*last, now_ms) {
         return false;
     }
     *last = Some(now_ms);
@@ -369,14 +375,18 @@ impl LiveTap {
         if self.shared.latched_slot.get(slot).copied().unwrap_or(false) {
             return true;
         }
-        if !self.shared.channels.get(slot).is_some_and(|c| c.has_sinks()) {
+        let Some(ch) = self.shared.channels.get(slot) else { return false };
+        if !self.shared.gated_slot[slot] {
+            return ch.has_sinks();
+        }
+        // The clock first: asking the channel for its subscribers costs more (a few
+        // atomic operations) and most messages of an unpaced run fall within the gap.
+        let now = self.now_ms();
+        if within_gap(self.last_sent[slot], now) || !ch.has_sinks() {
             return false;
         }
-        if !self.shared.gated_slot[slot] {
-            return true;
-        }
-        let now = self.now_ms();
-        gap_passed(&mut self.last_sent[slot], now)
+        self.last_sent[slot] = Some(now);
+        true
     }
 
     /// Serializes a message with `write` into the tap's buffer, sends it (a latched
@@ -389,7 +399,7 @@ impl LiveTap {
         let mut sinks = ch.has_sinks();
         if self.shared.latched_slot[slot] {
             if let Ok(mut l) = self.shared.latched.lock() {
-                match l.get_mut(&slot) {
+                match &mut l[slot] {
                     // The scenes are republished unchanged: keep the bytes, move the time.
                     Some((t, b)) if *b == self.scratch => *t = log_time,
                     Some((t, b)) => {
@@ -397,9 +407,7 @@ impl LiveTap {
                         b.clear();
                         b.extend_from_slice(&self.scratch);
                     }
-                    None => {
-                        l.insert(slot, (log_time, self.scratch.clone()));
-                    }
+                    None => l[slot] = Some((log_time, self.scratch.clone())),
                 }
             }
             let now = self.now_ms();
@@ -420,22 +428,19 @@ impl LiveTap {
         if self.shared.latched_slot[slot]
             && let Ok(mut l) = self.shared.latched.lock()
         {
-            match l.get_mut(&slot) {
+            match &mut l[slot] {
                 Some((t, _)) => *t = log_time,
-                None => {
-                    l.insert(slot, (log_time, bytes.to_vec()));
-                }
+                None => l[slot] = Some((log_time, bytes.to_vec())),
             }
         }
         let ch = &self.shared.channels[slot];
-        if !ch.has_sinks() {
+        let now = self.now_ms();
+        if within_gap(self.last_sent[slot], now) || !ch.has_sinks() {
             return;
         }
-        let now = self.now_ms();
-        if gap_passed(&mut self.last_sent[slot], now) {
-            ch.log_with_meta(bytes, PartialMetadata { log_time: Some(log_time) });
-            self.pace(log_time);
-        }
+        self.last_sent[slot] = Some(now);
+        ch.log_with_meta(bytes, PartialMetadata { log_time: Some(log_time) });
+        self.pace(log_time);
     }
 
     /// Whether the pose sample at `log_time` goes to the clients (with its estimate):
@@ -486,7 +491,9 @@ impl LiveTap {
         }
         // Paced at every step, not only at the messages sent: thinned, they can be far
         // apart.
-        self.pace(log_time);
+        if self.speed > 0.0 {
+            self.pace(log_time);
+        }
         if self.last_time_sent == Some(log_time) {
             return;
         }
