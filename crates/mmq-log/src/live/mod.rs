@@ -86,6 +86,9 @@ impl LiveConfig {
     }
 }
 
+/// A latched topic's last message: (log time, bytes).
+type Latched = (u64, Vec<u8>);
+
 /// What the server, its listener and the taps share.
 struct Shared {
     /// The SDK context the channels and the server belong to (kept alive with them).
@@ -95,7 +98,7 @@ struct Shared {
     /// Slot of each channel id.
     slots: HashMap<ChannelId, usize>,
     /// Last message of each latched slot, by slot: (log time, bytes).
-    latched: Mutex<Vec<Option<(u64, Vec<u8>)>>>,
+    latched: Mutex<Vec<Option<Latched>>>,
     latched_slot: Vec<bool>,
     /// Slots thinned per topic to one message per [`LIVE_MIN_GAP`] (poses are thinned
     /// per sample instead; contacts and notes not at all).
