@@ -7,9 +7,12 @@
 # From the repository root, after
 #   cargo build --release --workspace
 #   cargo build --release --workspace --examples     # the client: examples/live_client
-# Usage: REPS=5 bash tools/live-overhead.sh   (MMQ=path/to/mmq measures another binary)
+# Usage: REPS=5 bash tools/live-overhead.sh   (MMQ=path/to/mmq measures another binary;
+# ONLY=grid, ONLY=robot or ONLY=paced runs only those cases, e.g. for more rounds of them)
 set -euo pipefail
 REPS=${REPS:-5}
+ONLY=${ONLY:-}
+want() { [ -z "$ONLY" ] || [ "$ONLY" = "$1" ]; }
 M=${MMQ:-target/release/mmq}
 C=target/release/examples/live_client
 O=$(mktemp -d "${TMPDIR:-/tmp}/mmq-live-overhead.XXXXXX")
@@ -27,17 +30,23 @@ client() { port=$((port + 1)); ($C 127.0.0.1:$port > "$O/client-$1-$port.txt" 2>
 echo "# rounds: $REPS; load at start: $(cut -d' ' -f1-3 /proc/loadavg)"
 for i in $(seq "$REPS"); do
   echo "round $i load $(cut -d' ' -f1 /proc/loadavg)"
-  echo "grid-plain $(t $M $GRID --out "$O/g")"
-  echo "grid-live $(t $M $GRID --out "$O/g" --live 0)"
-  client grid
-  echo "grid-client $(t $M $GRID --out "$O/g" --live 127.0.0.1:$port --live-speed 0)"
-  echo "robot-plain $(t $M $ROBOT --out "$O/r")"
-  echo "robot-live $(t $M $ROBOT --out "$O/r" --live 0)"
-  client robot
-  echo "robot-client $(t $M $ROBOT --out "$O/r" --live 127.0.0.1:$port --live-speed 0)"
-  echo "paced-plain $(t $M $PACED --out "$O/p")"
-  client paced
-  echo "paced-client $(t $M $PACED --out "$O/p" --live 127.0.0.1:$port --live-speed 50)"
+  if want grid; then
+    echo "grid-plain $(t $M $GRID --out "$O/g")"
+    echo "grid-live $(t $M $GRID --out "$O/g" --live 0)"
+    client grid
+    echo "grid-client $(t $M $GRID --out "$O/g" --live 127.0.0.1:$port --live-speed 0)"
+  fi
+  if want robot; then
+    echo "robot-plain $(t $M $ROBOT --out "$O/r")"
+    echo "robot-live $(t $M $ROBOT --out "$O/r" --live 0)"
+    client robot
+    echo "robot-client $(t $M $ROBOT --out "$O/r" --live 127.0.0.1:$port --live-speed 0)"
+  fi
+  if want paced; then
+    echo "paced-plain $(t $M $PACED --out "$O/p")"
+    client paced
+    echo "paced-client $(t $M $PACED --out "$O/p" --live 127.0.0.1:$port --live-speed 50)"
+  fi
 done | tee "$O/raw.txt"
 sleep 1
 echo "# what the clients received (last round):"

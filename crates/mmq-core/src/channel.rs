@@ -19,7 +19,7 @@ use std::collections::BinaryHeap;
 
 use crate::delay::{DelayDist, DelaySampler, SecondsSampler};
 use crate::env::{Action, Env, EnvError, Start, State, Step, StepTrace};
-use crate::observer::StepRecord;
+use crate::observer::{Resume, StepRecord};
 use crate::seed::{Rng, rng_from_seed};
 
 /// Times closer than this are equal when the channel compares a due time with the end
@@ -463,6 +463,18 @@ impl<E: Env> DelayedReward<E> {
     pub fn delivered_emissions(&self) -> impl Iterator<Item = (u64, f64)> + '_ {
         let ledger = self.ledger.as_ref();
         self.delivered_ids.iter().filter_map(move |&i| ledger?.get(i)).map(|e| (e.t_emit, e.value))
+    }
+    /// Where the run stands before the next step, for an observer that skipped steps
+    /// ([`crate::Observer::on_resume`]): the same totals an observer summing every
+    /// step's emitted and delivered rewards would hold.
+    pub fn resume_point(&self) -> Resume {
+        Resume {
+            t: self.t,
+            sim_time_s: self.env.sim_time_s(),
+            emitted_total: self.emitted_total,
+            delivered_total: self.delivered_total,
+            emissions: self.stats.delivered + self.in_flight_count(),
+        }
     }
     /// What an observer is told of the step `st` just taken from `state` with `action`
     /// (`model`, `explored`: the learner's decision; `trace`: the step's continuous-time

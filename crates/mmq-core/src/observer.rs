@@ -2,7 +2,13 @@
 //!
 //! The runner calls [`Observer::on_step`] after the learner has seen the step. An
 //! observer that does nothing costs one virtual call per step; when recording is off
-//! the runner holds no observer at all.
+//! the runner holds no observer at all. An observer that only sometimes wants the steps
+//! (a live view nobody watches) hands the runner a [`StepGate`]: while it is closed the
+//! runner builds no record and makes no call, and when it opens again it tells the
+//! observer where the run stands ([`Observer::on_resume`]).
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::channel::{Emission, Ledger};
 use crate::env::{Action, Event, PoseSample, State, StepTrace};
@@ -73,6 +79,52 @@ pub struct RunInfo<'a> {
     pub start_pose: Option<PoseSample>,
 }
 
+/// A gate an observer shares with the runner: open while at least one party wants the
+/// steps (each [`StepGate::open`] is matched by a [`StepGate::close`]). The runner reads
+/// it once per step: one relaxed atomic load.
+#[derive(Clone, Debug, Default)]
+pub struct StepGate(Arc<AtomicUsize>);
+
+impl StepGate {
+    /// A closed gate.
+    pub fn new() -> Self {
+        Self::default()
+    }
+    /// Someone wants the steps from now on.
+    pub fn open(&self) {
+        self.0.fetch_add(1, Ordering::SeqCst);
+    }
+    /// Someone no longer wants them (a close without an open does nothing).
+    pub fn close(&self) {
+        let _ = self.0.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1));
+    }
+    /// Whether anyone wants the steps now.
+    #[inline]
+    pub fn is_open(&self) -> bool {
+        self.0.load(Ordering::Relaxed) > 0
+    }
+    /// How many want them.
+    pub fn count(&self) -> usize {
+        self.0.load(Ordering::SeqCst)
+    }
+}
+
+/// Where a run stands just before decision step `t`: what an observer that skipped steps
+/// behind a closed [`StepGate`] picks up from ([`Observer::on_resume`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Resume {
+    /// The next decision step (the steps before it are done).
+    pub t: u64,
+    /// Simulated time now, at the start of step `t`, seconds.
+    pub sim_time_s: f64,
+    /// Sum of every reward emitted so far (summed in emission order).
+    pub emitted_total: f64,
+    /// Sum of every reward delivered so far (summed step by step).
+    pub delivered_total: f64,
+    /// Rewards emitted so far (the id the next emission gets).
+    pub emissions: u64,
+}
+
 /// Receives the steps of a run.
 pub trait Observer {
     /// How often the environment should sample poses during a step (simulated seconds;
@@ -82,8 +134,17 @@ pub trait Observer {
     }
     /// Called once before the first step, with the initial state.
     fn on_start(&mut self, _info: &RunInfo<'_>, _initial_state: State, _sim_time_s: f64) {}
-    /// Called after every step.
+    /// Called after every step (while the [`Observer::step_gate`], if any, is open).
     fn on_step(&mut self, _rec: &StepRecord<'_>) {}
+    /// A gate the runner reads before each step, taken once after `on_start`: while it
+    /// is closed the runner skips `on_step` (and building its record; `on_tables` and
+    /// `on_finish` still come); when it opens again, `on_resume` comes before the next
+    /// `on_step`. `None` (the default): every step is observed.
+    fn step_gate(&self) -> Option<StepGate> {
+        None
+    }
+    /// Called when the gate opens again after steps were skipped, before step `at.t`.
+    fn on_resume(&mut self, _at: &Resume) {}
     /// Called at intervals with the learner's per-cell visit counts and greedy values.
     fn on_tables(&mut self, _t: u64, _sim_time_s: f64, _visits: &[f64], _values: &[f64]) {}
     /// Called once at the end (also when the run was interrupted: `complete` = false).

@@ -6,8 +6,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 use mmq_core::{
-    DelayDist, DelayedReward, Env, Event, Move, Observer, Optimum, RunInfo, SeedTree, Start, StepTrace,
-    Stream, World,
+    DelayDist, DelayedReward, Env, Event, Move, Observer, Optimum, RunInfo, SeedTree, Start, StepGate,
+    StepTrace, Stream, World,
 };
 use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
@@ -325,7 +325,15 @@ fn learn<E: Env>(
         };
         o.on_start(&run_info, s, ch.env().sim_time_s());
     }
+    // An observer that sometimes wants no steps (a live view nobody watches): while its
+    // gate is closed, no record is built and no call made.
+    let gate = observer.as_ref().and_then(|o| o.step_gate());
+    // Whether the next step is observed (read at the end of the step before, so that a
+    // run without an observer pays nothing for it).
+    let mut open = gate.as_ref().is_none_or(StepGate::is_open);
     let table_every = (cfg.steps / 10).max(1);
+    // Steps left until the next tables (a countdown, not a division per step).
+    let mut tables_left = table_every;
     let (mut w_earned, mut w_received) = (0.0, 0.0);
     // Steps left in the current curve window (a countdown, not a division per step).
     let mut window_left = cfg.window;
@@ -370,11 +378,23 @@ fn learn<E: Env>(
         traj.steps_done = t + 1;
         pending_progress += 1;
         if let Some(o) = observer.as_mut() {
-            ch.env_mut().take_trace(&mut trace);
-            o.on_step(&ch.record(s, d.action, d.model, d.explored, &st, &trace));
-            if (t + 1) % table_every == 0 {
+            if open {
+                ch.env_mut().take_trace(&mut trace);
+                o.on_step(&ch.record(s, d.action, d.model, d.explored, &st, &trace));
+            }
+            tables_left -= 1;
+            if tables_left == 0 {
+                tables_left = table_every;
                 let (visits, values) = cell_tables(ch.env(), &*learner, &traj.visits);
                 o.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);
+            }
+            if let Some(g) = &gate {
+                let was_open = open;
+                open = g.is_open();
+                if open && !was_open {
+                    // Where the run stands before the next step.
+                    o.on_resume(&ch.resume_point());
+                }
             }
         }
         window_left -= 1;

@@ -183,3 +183,105 @@ fn a_realistic_robot_run_with_delays_in_seconds_verifies() {
         v => panic!("a realistic robot run: {v:?}"),
     }
 }
+
+/// What an observer was told: each step's (t, emitted, delivered, end time), and each
+/// resume.
+#[derive(Default)]
+struct Seen {
+    steps: Vec<(u64, f64, f64, f64)>,
+    resumes: Vec<mmq_core::Resume>,
+}
+
+/// Records what it is told; with a gate, closes it after step `close` and opens it
+/// again after step `reopen` (at the tables, which come every tenth of the run).
+struct Watcher {
+    seen: std::sync::Arc<std::sync::Mutex<Seen>>,
+    gate: Option<(mmq_core::StepGate, u64, u64)>,
+}
+
+impl mmq_core::Observer for Watcher {
+    fn on_step(&mut self, r: &mmq_core::StepRecord<'_>) {
+        self.seen.lock().unwrap().steps.push((r.t, r.emitted, r.delivered, r.sim_time_s));
+    }
+    fn step_gate(&self) -> Option<mmq_core::StepGate> {
+        self.gate.as_ref().map(|g| g.0.clone())
+    }
+    fn on_resume(&mut self, at: &mmq_core::Resume) {
+        self.seen.lock().unwrap().resumes.push(*at);
+    }
+    fn on_tables(&mut self, t: u64, _: f64, _: &[f64], _: &[f64]) {
+        if let Some((g, close, reopen)) = &self.gate {
+            if t == *close {
+                g.close();
+            } else if t == *reopen {
+                g.open();
+            }
+        }
+    }
+}
+
+/// A gated observer is told nothing while its gate is closed, then where the run
+/// stands: the totals and the emission count an observer of every step summed, and the
+/// time the last skipped step ended. The run's results are those of an ungated run.
+#[test]
+fn a_closed_gate_skips_steps_and_the_resume_point_is_exact() {
+    for env in [EnvKind::Grid, EnvKind::Robot] {
+        let steps = if env == EnvKind::Grid { 3000 } else { 200 };
+        let cfg = RunConfig {
+            world: world(),
+            env,
+            steps,
+            seed: 11,
+            baseline: false,
+            save_tables: false,
+            eval_steps: 0,
+            delay: "uniform:0:40".into(),
+            ..RunConfig::default()
+        };
+        let w = cfg.load_world().unwrap();
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        let run = |gated: bool| {
+            let seen = std::sync::Arc::new(std::sync::Mutex::new(Seen::default()));
+            let gate = gated.then(|| {
+                let g = mmq_core::StepGate::new();
+                g.open();
+                (g, steps / 10 * 2, steps / 10 * 6)
+            });
+            let obs = std::sync::Mutex::new(Some(Watcher { seen: seen.clone(), gate }));
+            let factory = move |_| {
+                Ok(obs.lock().unwrap().take().map(|o| Box::new(o) as Box<dyn mmq_core::Observer + Send>))
+            };
+            let out = run_all(&cfg, &w, &factory, ctl).unwrap();
+            let seen = std::mem::take(&mut *seen.lock().unwrap());
+            (out, seen)
+        };
+        let (all_out, all) = run(false);
+        let (gated_out, gated) = run(true);
+        let (a, b) = (&all_out.results[0].run, &gated_out.results[0].run);
+        assert_eq!(
+            (a.steps_done, a.earned_total, a.received_total),
+            (b.steps_done, b.earned_total, b.received_total)
+        );
+        assert_eq!(a.visits, b.visits);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&all_out.results[0].values), bits(&gated_out.results[0].values));
+        // Steps 0..close and reopen..steps are seen, as an ungated observer saw them.
+        let (close, reopen) = (steps / 10 * 2, steps / 10 * 6);
+        let expected: Vec<_> = all.steps.iter().filter(|s| s.0 < close || s.0 >= reopen).copied().collect();
+        assert_eq!(gated.steps, expected, "{env:?}");
+        assert!(all.resumes.is_empty());
+        assert_eq!(gated.resumes.len(), 1, "{env:?}");
+        let r = gated.resumes[0];
+        let before = &all.steps[..reopen as usize];
+        let emitted: f64 = before.iter().filter(|s| s.1 != 0.0).fold(0.0, |acc, s| acc + s.1);
+        let delivered: f64 = before.iter().fold(0.0, |acc, s| acc + s.2);
+        let emissions = before.iter().filter(|s| s.1 != 0.0).count() as u64;
+        assert!(emissions > 3 && delivered != 0.0, "{env:?}: a run with rewards in flight");
+        assert_eq!(r.t, reopen);
+        assert_eq!(r.sim_time_s, before.last().unwrap().3, "{env:?}");
+        assert_eq!(r.emitted_total.to_bits(), emitted.to_bits(), "{env:?}");
+        assert_eq!(r.delivered_total.to_bits(), delivered.to_bits(), "{env:?}");
+        assert_eq!(r.emissions, emissions, "{env:?}");
+    }
+}

@@ -30,7 +30,9 @@
 //! byte for byte with or without that thread.
 //!
 //! A recorder can also send every message to a live view ([`McapRecorder::with_live`],
-//! [`McapRecorder::live_only`]; see [`crate::live`]): the same bytes as the file.
+//! [`McapRecorder::live_only`]; see [`crate::live`]): the same bytes as the file. A
+//! message that goes nowhere (no file, and the live view's thinning holds it back) is
+//! not built.
 //!
 //! The code is split by concern: this file (configuration, output, finishing),
 //! `observe.rs` (what each observer hook writes), `scenes.rs` (the scene and grid
@@ -384,7 +386,11 @@ impl McapRecorder {
 
     /// A recorder that writes no file and shows the run in a live view only (`config`'s
     /// path is not used). While no client is connected it writes nothing but the latched
-    /// scenes, so the run is not slowed.
+    /// scenes and heat maps, and its step gate ([`mmq_core::Observer::step_gate`]) is
+    /// closed: the runner skips its steps, so the run is not slowed; when a client
+    /// connects it picks up the running totals from the runner
+    /// ([`mmq_core::Observer::on_resume`]). With a client, a message is built only when
+    /// the live view's thinning lets it through.
     pub fn live_only(config: RecorderConfig, live: LiveTap) -> Self {
         let mut stats = RecordStats::default();
         for i in 0..NCH {
@@ -443,15 +449,22 @@ impl McapRecorder {
         self.writer = None;
     }
 
-    /// Writes one message, whose bytes `write` appends.
-    fn emit(&mut self, ch: Ch, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
+    /// Where a message on `ch` goes now: `Some(live)` when it goes anywhere (to the
+    /// file if there is one, and to the live view when `live`: its thinning then counts
+    /// it as sent, so emit it next), `None` when nowhere (then it need not be built).
+    fn route(&mut self, ch: Ch) -> Option<bool> {
         let i = ch as usize;
         // The estimate's `/tf` and pose go live with their pose sample, or not at all.
         let live_ok = !matches!(ch, Ch::Tf | Ch::PoseEstimate) || self.live_pose;
-        if let Some(live) = self.live.as_mut().filter(|_| live_ok)
-            && live.wants(i)
-        {
-            let bytes = live.send(i, log_time, write);
+        let live = live_ok && self.live.as_mut().is_some_and(|l| l.wants(i));
+        (live || self.writer.is_some()).then_some(live)
+    }
+
+    /// Writes one message routed by [`Self::route`], whose bytes `write` appends.
+    fn emit_routed(&mut self, ch: Ch, live: bool, log_time: u64, write: impl FnOnce(&mut Vec<u8>)) {
+        let i = ch as usize;
+        if live && let Some(tap) = self.live.as_mut() {
+            let bytes = tap.send(i, log_time, write);
             let r = match self.writer.as_mut() {
                 Some(w) => w.message(self.channel_ids[i], log_time, |out| out.extend_from_slice(bytes)),
                 None if self.file => return,
@@ -472,10 +485,23 @@ impl McapRecorder {
     }
 
     fn write<T: Serialize>(&mut self, ch: Ch, log_time: u64, msg: &T) {
-        // Serializing our own plain structs into a Vec cannot fail.
-        self.emit(ch, log_time, |out| {
-            serde_json::to_writer(out, msg).expect("JSON serialization of a log message")
-        });
+        if let Some(live) = self.route(ch) {
+            // Serializing our own plain structs into a Vec cannot fail.
+            self.emit_routed(ch, live, log_time, |out| {
+                serde_json::to_writer(out, msg).expect("JSON serialization of a log message")
+            });
+        }
+    }
+
+    /// Writes the message `build` makes, building it only if it goes anywhere (a live
+    /// view thins what it sends; the file keeps every message).
+    fn write_with<T: Serialize>(&mut self, ch: Ch, log_time: u64, build: impl FnOnce(&Self) -> T) {
+        if let Some(live) = self.route(ch) {
+            let msg = build(self);
+            self.emit_routed(ch, live, log_time, |out| {
+                serde_json::to_writer(out, &msg).expect("JSON serialization of a log message")
+            });
+        }
     }
 
     /// Writes a scene: bytes serialized once and republished unchanged during the run.
@@ -562,6 +588,9 @@ impl McapRecorder {
     }
 
     fn maybe_flush(&mut self) {
+        if self.writer.is_none() {
+            return;
+        }
         let steps = self.stats.steps_seen;
         let by_steps = self.config.flush_every_steps > 0
             && steps - self.last_flush_step >= self.config.flush_every_steps;

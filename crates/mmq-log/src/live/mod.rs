@@ -7,9 +7,10 @@
 //!   ([`crate::McapRecorder::live_only`], [`crate::McapRecorder::with_live`]).
 //! - Latched topics ([`crate::messages::LATCHED`]: the scenes and heat maps) keep their
 //!   last message, which every new subscriber receives at once.
-//! - With no client connected the recorder writes nothing live (the run is not slowed);
-//!   with one, [`LiveConfig::speed`] paces the run to that many seconds of simulated time
-//!   per second of wall-clock time.
+//! - With no client connected the recorder writes nothing live and the runner skips a
+//!   live-only recorder's steps altogether (its step gate is the count of clients), so
+//!   the run is not slowed; with one, [`LiveConfig::speed`] paces the run to that many
+//!   seconds of simulated time per second of wall-clock time.
 //! - What a client gets is thinned for watching, the recording never: poses at most every
 //!   [`LIVE_POSE_PERIOD_NS`] of simulated time (10 Hz) and, like every other topic but
 //!   contacts and notes, and like the time updates, at most once per [`LIVE_MIN_GAP`] of
@@ -21,12 +22,13 @@
 
 use std::collections::HashMap;
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, Weak};
 use std::time::{Duration, Instant};
 
 use foxglove::websocket::{Capability, ChannelView, Client, ServerListener};
 use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema, WebSocketServerHandle};
+use mmq_core::StepGate;
 
 use crate::error::LogError;
 use crate::messages::{CHANNELS, LATCHED, LOG_CHANNEL, topics};
@@ -84,6 +86,9 @@ impl LiveConfig {
     }
 }
 
+/// A latched topic's last message: (log time, bytes).
+type Latched = (u64, Vec<u8>);
+
 /// What the server, its listener and the taps share.
 struct Shared {
     /// The SDK context the channels and the server belong to (kept alive with them).
@@ -92,13 +97,15 @@ struct Shared {
     channels: Vec<Arc<RawChannel>>,
     /// Slot of each channel id.
     slots: HashMap<ChannelId, usize>,
-    /// Last message of each latched slot: (log time, bytes).
-    latched: Mutex<HashMap<usize, (u64, Vec<u8>)>>,
+    /// Last message of each latched slot, by slot: (log time, bytes).
+    latched: Mutex<Vec<Option<Latched>>>,
     latched_slot: Vec<bool>,
     /// Slots thinned per topic to one message per [`LIVE_MIN_GAP`] (poses are thinned
     /// per sample instead; contacts and notes not at all).
     gated_slot: Vec<bool>,
-    clients: AtomicUsize,
+    /// Clients connected: open while there is one (the runner skips the steps of a
+    /// live-only run while it is closed).
+    clients: StepGate,
     /// A coarse wall clock for the thinning, milliseconds since the server started: set
     /// by a thread of its own every [`CLOCK_TICK`] while clients are connected (reading
     /// the system clock for every message cost more than the message on a busy machine).
@@ -119,7 +126,7 @@ fn run_clock(shared: Weak<Shared>) {
             return;
         }
         s.clock_ms.store(t0.elapsed().as_millis() as u64, Ordering::Relaxed);
-        let idle = s.clients.load(Ordering::Relaxed) == 0;
+        let idle = !s.clients.is_open();
         drop(s);
         std::thread::sleep(if idle { 10 * CLOCK_TICK } else { CLOCK_TICK });
     }
@@ -148,10 +155,10 @@ impl Shared {
             _ctx: Arc::clone(ctx),
             channels,
             slots,
-            latched: Mutex::new(HashMap::new()),
+            latched: Mutex::new(vec![None; latched_slot.len()]),
             latched_slot,
             gated_slot,
-            clients: AtomicUsize::new(0),
+            clients: StepGate::new(),
             clock_ms: AtomicU64::new(0),
             ticking: AtomicBool::new(true),
         })
@@ -165,17 +172,17 @@ impl ServerListener for Listener {
     fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
         let Some(&slot) = self.0.slots.get(&channel.id()) else { return };
         let Some(sink) = client.sink_id() else { return };
-        let last = self.0.latched.lock().ok().and_then(|l| l.get(&slot).cloned());
+        let last = self.0.latched.lock().ok().and_then(|l| l.get(slot).cloned().flatten());
         if let Some((log_time, bytes)) = last {
             let meta = PartialMetadata { log_time: Some(log_time) };
             self.0.channels[slot].log_with_meta_to_sink(&bytes, meta, Some(sink));
         }
     }
     fn on_client_connect(&self) {
-        self.0.clients.fetch_add(1, Ordering::SeqCst);
+        self.0.clients.open();
     }
     fn on_client_disconnect(&self) {
-        let _ = self.0.clients.fetch_update(Ordering::SeqCst, Ordering::SeqCst, |n| n.checked_sub(1));
+        self.0.clients.close();
     }
 }
 
@@ -257,7 +264,7 @@ impl LiveServer {
 
     /// Clients connected now.
     pub fn clients(&self) -> usize {
-        self.shared.clients.load(Ordering::SeqCst)
+        self.shared.clients.count()
     }
 
     /// A tap for a recorder (one per run shown).
@@ -319,10 +326,16 @@ pub struct LiveTap {
     last_sent: Vec<Option<u64>>,
 }
 
+/// Whether less than [`LIVE_MIN_GAP`] has passed from `last` to `now_ms`; times in
+/// milliseconds of the server's clock.
+fn within_gap(last: Option<u64>, now_ms: u64) -> bool {
+    last.is_some_and(|t| now_ms.saturating_sub(t) < LIVE_MIN_GAP.as_millis() as u64)
+}
+
 /// Whether [`LIVE_MIN_GAP`] has passed from `last` to `now_ms` (then `last` becomes
 /// `now_ms`); times in milliseconds of the server's clock.
 fn gap_passed(last: &mut Option<u64>, now_ms: u64) -> bool {
-    if last.is_some_and(|t| now_ms.saturating_sub(t) < LIVE_MIN_GAP.as_millis() as u64) {
+    if within_gap(*last, now_ms) {
         return false;
     }
     *last = Some(now_ms);
@@ -349,7 +362,13 @@ impl LiveTap {
 
     /// A client is connected.
     pub(crate) fn has_clients(&self) -> bool {
-        self.shared.clients.load(Ordering::Relaxed) > 0
+        self.shared.clients.is_open()
+    }
+
+    /// Open while a client is connected: a live-only recorder hands it to the runner,
+    /// which skips the steps while it is closed ([`mmq_core::Observer::step_gate`]).
+    pub(crate) fn gate(&self) -> StepGate {
+        self.shared.clients.clone()
     }
 
     /// The message of `slot` is worth serializing: it is latched (kept for later
@@ -359,14 +378,18 @@ impl LiveTap {
         if self.shared.latched_slot.get(slot).copied().unwrap_or(false) {
             return true;
         }
-        if !self.shared.channels.get(slot).is_some_and(|c| c.has_sinks()) {
+        let Some(ch) = self.shared.channels.get(slot) else { return false };
+        if !self.shared.gated_slot[slot] {
+            return ch.has_sinks();
+        }
+        // The clock first: asking the channel for its subscribers costs more (a few
+        // atomic operations) and most messages of an unpaced run fall within the gap.
+        let now = self.now_ms();
+        if within_gap(self.last_sent[slot], now) || !ch.has_sinks() {
             return false;
         }
-        if !self.shared.gated_slot[slot] {
-            return true;
-        }
-        let now = self.now_ms();
-        gap_passed(&mut self.last_sent[slot], now)
+        self.last_sent[slot] = Some(now);
+        true
     }
 
     /// Serializes a message with `write` into the tap's buffer, sends it (a latched
@@ -379,7 +402,7 @@ impl LiveTap {
         let mut sinks = ch.has_sinks();
         if self.shared.latched_slot[slot] {
             if let Ok(mut l) = self.shared.latched.lock() {
-                match l.get_mut(&slot) {
+                match &mut l[slot] {
                     // The scenes are republished unchanged: keep the bytes, move the time.
                     Some((t, b)) if *b == self.scratch => *t = log_time,
                     Some((t, b)) => {
@@ -387,9 +410,7 @@ impl LiveTap {
                         b.clear();
                         b.extend_from_slice(&self.scratch);
                     }
-                    None => {
-                        l.insert(slot, (log_time, self.scratch.clone()));
-                    }
+                    None => l[slot] = Some((log_time, self.scratch.clone())),
                 }
             }
             let now = self.now_ms();
@@ -410,22 +431,19 @@ impl LiveTap {
         if self.shared.latched_slot[slot]
             && let Ok(mut l) = self.shared.latched.lock()
         {
-            match l.get_mut(&slot) {
+            match &mut l[slot] {
                 Some((t, _)) => *t = log_time,
-                None => {
-                    l.insert(slot, (log_time, bytes.to_vec()));
-                }
+                None => l[slot] = Some((log_time, bytes.to_vec())),
             }
         }
         let ch = &self.shared.channels[slot];
-        if !ch.has_sinks() {
+        let now = self.now_ms();
+        if within_gap(self.last_sent[slot], now) || !ch.has_sinks() {
             return;
         }
-        let now = self.now_ms();
-        if gap_passed(&mut self.last_sent[slot], now) {
-            ch.log_with_meta(bytes, PartialMetadata { log_time: Some(log_time) });
-            self.pace(log_time);
-        }
+        self.last_sent[slot] = Some(now);
+        ch.log_with_meta(bytes, PartialMetadata { log_time: Some(log_time) });
+        self.pace(log_time);
     }
 
     /// Whether the pose sample at `log_time` goes to the clients (with its estimate):
@@ -476,7 +494,9 @@ impl LiveTap {
         }
         // Paced at every step, not only at the messages sent: thinned, they can be far
         // apart.
-        self.pace(log_time);
+        if self.speed > 0.0 {
+            self.pace(log_time);
+        }
         if self.last_time_sent == Some(log_time) {
             return;
         }

@@ -4,7 +4,7 @@
 
 use std::collections::BTreeMap;
 
-use mmq_core::{Emission, Event, Move, Observer, PoseSample, RunInfo, State, StepRecord};
+use mmq_core::{Emission, Event, Move, Observer, PoseSample, Resume, RunInfo, State, StepGate, StepRecord};
 
 use super::scenes::{ESTIMATE_FRAME, arena_scene, estimate_scene, heatmap, robot_radius, robot_scene};
 use super::{CHUNK_SIZE, Ch, McapRecorder, RecorderConfig, Run, ns};
@@ -17,6 +17,37 @@ impl Observer for McapRecorder {
 
     fn error(&self) -> Option<String> {
         self.error.as_ref().map(ToString::to_string)
+    }
+
+    /// A live-only recorder wants the steps only while a client is connected (a file
+    /// keeps every step: no gate).
+    fn step_gate(&self) -> Option<StepGate> {
+        if self.file { None } else { self.live.as_ref().map(|l| l.gate()) }
+    }
+
+    /// Picks up the running figures the skipped steps would have kept: the step count,
+    /// the reward totals and the next emission's id, the step's start time.
+    fn on_resume(&mut self, at: &Resume) {
+        let Some(run) = &self.run else { return };
+        if self.file {
+            return;
+        }
+        self.stats.steps_seen = at.t;
+        self.emitted_total = at.emitted_total;
+        self.delivered_total = at.delivered_total;
+        self.next_emission_id = at.emissions;
+        if run.grid {
+            self.step_start_s = (at.t * self.period_ns) as f64 * 1e-9;
+        } else {
+            let now_s = at.sim_time_s + self.time_offset_s;
+            if now_s + 1e-9 < self.step_start_s {
+                self.time_offset_s = self.step_start_s;
+            }
+            self.step_start_s = at.sim_time_s + self.time_offset_s;
+            // As while skipping: the thinning clock does not lag behind.
+            self.next_pose_s = self.next_pose_s.max(self.step_start_s);
+        }
+        self.prev_recorded = false;
     }
 
     fn on_start(&mut self, info: &RunInfo<'_>, initial_state: State, sim_time_s: f64) {
@@ -161,23 +192,25 @@ impl Observer for McapRecorder {
         self.stats.steps_seen += 1;
         if recorded {
             self.stats.steps_recorded += 1;
-            let action_name =
-                run.action_names.get(rec.action).cloned().unwrap_or_else(|| rec.action.to_string());
             if (grid || rec.trace.poses.is_empty()) && !self.prev_recorded {
                 // Entering a window: show where the decision is taken.
                 self.write_cell_pose(start_ns, rec.state);
             }
-            let decision = m::Decision {
+            // Messages are built only where they go (a live view thins what it sends).
+            self.write_with(Ch::Decision, start_ns, |r| m::Decision {
                 t,
                 state: rec.state as u64,
                 action: rec.action as u64,
-                action_name,
+                action_name: r
+                    .run
+                    .as_ref()
+                    .and_then(|run| run.action_names.get(rec.action).cloned())
+                    .unwrap_or_else(|| rec.action.to_string()),
                 model: rec.model.map(|x| x as u64),
                 explored: rec.explored,
                 next_state: rec.next_state as u64,
                 event: rec.event.name().to_string(),
-            };
-            self.write(Ch::Decision, start_ns, &decision);
+            });
             self.write_motion(rec, grid, end_ns);
             if let Some((id, delay, t_emit_s, drawn_s)) = emission {
                 let cause = match rec.event {
@@ -185,7 +218,7 @@ impl Observer for McapRecorder {
                     Event::Teleport => "goal",
                     Event::Moved | Event::TimedOut => "step",
                 };
-                let msg = m::RewardEmitted {
+                self.write_with(Ch::Emitted, end_ns, |r| m::RewardEmitted {
                     id,
                     t,
                     value: rec.emitted,
@@ -195,52 +228,53 @@ impl Observer for McapRecorder {
                     t_emit_s: Some(t_emit_s).filter(|x| x.is_finite()),
                     delay_s: drawn_s,
                     due_s: drawn_s.map(|d| t_emit_s + d),
-                    total: self.emitted_total,
-                };
-                self.write(Ch::Emitted, end_ns, &msg);
+                    total: r.emitted_total,
+                });
             }
             if rec.delivered != 0.0 || !rec.delivered_ids.is_empty() {
-                let parts = rec
-                    .ledger
-                    .map(|l| {
-                        rec.delivered_ids
-                            .iter()
-                            .filter_map(|&id| l.get(id))
-                            .map(|e| m::DeliveredPart {
-                                id: e.id,
-                                t_emit: e.t_emit,
-                                delay: e.delay,
-                                value: e.value,
-                                t_emit_s: Some(e.t_emit_s).filter(|x| x.is_finite()),
-                                delay_s: Some(e.delay_s()).filter(|x| x.is_finite()),
-                                drawn_s: Some(e.drawn_s).filter(|x| x.is_finite()),
-                            })
-                            .collect()
-                    })
-                    .unwrap_or_default();
-                let msg = m::RewardDelivered {
-                    t,
-                    sum: rec.delivered,
-                    ids: rec.delivered_ids.to_vec(),
-                    parts,
-                    total: self.delivered_total,
-                };
-                self.write(Ch::Delivered, end_ns, &msg);
+                self.write_with(Ch::Delivered, end_ns, |r| {
+                    let parts = rec
+                        .ledger
+                        .map(|l| {
+                            rec.delivered_ids
+                                .iter()
+                                .filter_map(|&id| l.get(id))
+                                .map(|e| m::DeliveredPart {
+                                    id: e.id,
+                                    t_emit: e.t_emit,
+                                    delay: e.delay,
+                                    value: e.value,
+                                    t_emit_s: Some(e.t_emit_s).filter(|x| x.is_finite()),
+                                    delay_s: Some(e.delay_s()).filter(|x| x.is_finite()),
+                                    drawn_s: Some(e.drawn_s).filter(|x| x.is_finite()),
+                                })
+                                .collect()
+                        })
+                        .unwrap_or_default();
+                    m::RewardDelivered {
+                        t,
+                        sum: rec.delivered,
+                        ids: rec.delivered_ids.to_vec(),
+                        parts,
+                        total: r.delivered_total,
+                    }
+                });
             }
             if rec.event == Event::Teleport {
-                let center = |s: State| {
-                    let w = &self.run.as_ref().expect("run started").world;
-                    let (x, y) = if s < w.num_cells() { w.cell_center(s) } else { (f64::NAN, f64::NAN) };
-                    m::Point2 { x, y }
-                };
-                let msg = m::Teleport {
-                    t,
-                    from_state: rec.state as u64,
-                    to_state: rec.next_state as u64,
-                    from: center(rec.state),
-                    to: center(rec.next_state),
-                };
-                self.write(Ch::Teleport, end_ns, &msg);
+                self.write_with(Ch::Teleport, end_ns, |r| {
+                    let center = |s: State| {
+                        let w = &r.run.as_ref().expect("run started").world;
+                        let (x, y) = if s < w.num_cells() { w.cell_center(s) } else { (f64::NAN, f64::NAN) };
+                        m::Point2 { x, y }
+                    };
+                    m::Teleport {
+                        t,
+                        from_state: rec.state as u64,
+                        to_state: rec.next_state as u64,
+                        from: center(rec.state),
+                        to: center(rec.next_state),
+                    }
+                });
                 self.write_scenes(end_ns);
             }
         } else if let Some(p) = rec.trace.poses.last() {
@@ -278,6 +312,10 @@ impl Observer for McapRecorder {
     }
 
     fn on_finish(&mut self, t: u64, complete: bool) {
+        if !self.file {
+            // Steps skipped behind the gate at the end were seen all the same.
+            self.stats.steps_seen = self.stats.steps_seen.max(t);
+        }
         if let Err(e) = self.finish(t, complete) {
             self.error = Some(e);
         }
@@ -344,38 +382,39 @@ impl McapRecorder {
             self.write_bytes(Ch::RobotEstimate, time_ns, &bytes);
         }
         let ts = m::Time::from_ns(time_ns);
-        let tf = m::FrameTransform {
+        self.write_with(Ch::Tf, time_ns, |_| m::FrameTransform {
             timestamp: ts,
             parent_frame_id: "world".into(),
             child_frame_id: ESTIMATE_FRAME.into(),
             translation: m::Vector3 { x: e.x, y: e.y, z: 0.0 },
             rotation: m::Quaternion::yaw(e.theta),
-        };
-        self.write(Ch::Tf, time_ns, &tf);
-        let pose = m::PoseInFrame {
+        });
+        self.write_with(Ch::PoseEstimate, time_ns, |_| m::PoseInFrame {
             timestamp: ts,
             frame_id: "world".into(),
             pose: m::Pose::planar(e.x, e.y, 0.0, e.theta),
-        };
-        self.write(Ch::PoseEstimate, time_ns, &pose);
+        });
     }
 
     /// A localisation fix on `/robot/fix`, at the time it was received.
     fn write_fix(&mut self, f: &PoseSample) {
         let time_ns = ns(f.time_s + self.time_offset_s);
         let ts = m::Time::from_ns(time_ns);
-        let pose = m::PoseInFrame {
+        self.write_with(Ch::Fix, time_ns, |_| m::PoseInFrame {
             timestamp: ts,
             frame_id: "world".into(),
             pose: m::Pose::planar(f.x, f.y, 0.0, f.theta),
-        };
-        self.write(Ch::Fix, time_ns, &pose);
+        });
     }
 
     fn write_contact(&mut self, t: u64, c: &mmq_core::ContactSample) {
         let time_s = c.time_s + self.time_offset_s;
-        let msg = m::Contact { t, time_s, started: c.started, wall: c.wall.clone() };
-        self.write(Ch::Contact, ns(time_s), &msg);
+        self.write_with(Ch::Contact, ns(time_s), |_| m::Contact {
+            t,
+            time_s,
+            started: c.started,
+            wall: c.wall.clone(),
+        });
     }
 }
 

@@ -67,15 +67,26 @@ pub fn run_grid(
         start_pose: None,
     };
     obs.on_start(&info, s, ch.env().sim_time_s());
+    // The runner's gate: no step is told while it is closed, the resume point when it
+    // opens again.
+    let gate = obs.step_gate();
+    let mut was_open = true;
     let trace = StepTrace::default();
     let mut out = Vec::new();
     let mut visits = vec![0.0; world.num_cells()];
     for t in 0..steps {
+        let open = gate.as_ref().is_none_or(|g| g.is_open());
+        if open && !was_open {
+            obs.on_resume(&ch.resume_point());
+        }
+        was_open = open;
         let a = action_of(seed, t);
         let st = ch.step(a).unwrap();
         visits[s] += 1.0;
         let rec = ch.record(s, a, (t % 7 != 0).then_some((t % 3) as usize), t % 5 == 0, &st, &trace);
-        obs.on_step(&rec);
+        if open {
+            obs.on_step(&rec);
+        }
         out.push(StepLog {
             t,
             state: s,

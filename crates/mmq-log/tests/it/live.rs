@@ -164,43 +164,75 @@ fn local(speed: f64) -> LiveConfig {
     LiveConfig { addr: "127.0.0.1:0".parse().unwrap(), speed, name: "test".into() }
 }
 
-/// Runs a live-only grid run of `steps` on its own thread; returns it.
+/// Runs a live-only grid run of `steps` on its own thread (seed 5, tables every 200
+/// steps), waiting after its start; returns it.
 fn run_live(
     server: &LiveServer,
     steps: u64,
     started: Arc<AtomicBool>,
     go: Arc<AtomicBool>,
 ) -> std::thread::JoinHandle<Duration> {
+    run_live_waiting_at(server, steps, 0, started, go)
+}
+
+/// [`run_live`], waiting at step `wait_at` instead (0: after its start; else a multiple
+/// of 200, at the tables).
+fn run_live_waiting_at(
+    server: &LiveServer,
+    steps: u64,
+    wait_at: u64,
+    started: Arc<AtomicBool>,
+    go: Arc<AtomicBool>,
+) -> std::thread::JoinHandle<Duration> {
     let tap = server.tap();
     std::thread::spawn(move || {
         let rec = McapRecorder::live_only(RecorderConfig::new(""), tap);
-        let mut gate = Gate { rec, started, go };
+        let mut gate = Gate { rec, wait_at, started, go };
         let t0 = Instant::now();
         common::run_grid(&common::world("paper-9x9"), &mut gate, steps, 5, 200);
         t0.elapsed()
     })
 }
 
-/// Passes everything to the recorder, and waits after `on_start` until told to go.
+/// Passes everything to the recorder (its step gate too), and waits at step `wait_at`
+/// (after `on_start`, or at the tables) until told to go.
 struct Gate {
     rec: McapRecorder,
+    wait_at: u64,
     started: Arc<AtomicBool>,
     go: Arc<AtomicBool>,
+}
+
+impl Gate {
+    fn wait(&self) {
+        self.started.store(true, Ordering::SeqCst);
+        while !self.go.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
 }
 
 impl mmq_core::Observer for Gate {
     fn on_start(&mut self, info: &mmq_core::RunInfo<'_>, s: usize, t: f64) {
         self.rec.on_start(info, s, t);
-        self.started.store(true, Ordering::SeqCst);
-        while !self.go.load(Ordering::SeqCst) {
-            std::thread::sleep(Duration::from_millis(5));
+        if self.wait_at == 0 {
+            self.wait();
         }
+    }
+    fn step_gate(&self) -> Option<mmq_core::StepGate> {
+        self.rec.step_gate()
+    }
+    fn on_resume(&mut self, at: &mmq_core::Resume) {
+        self.rec.on_resume(at);
     }
     fn on_step(&mut self, r: &mmq_core::StepRecord<'_>) {
         self.rec.on_step(r);
     }
     fn on_tables(&mut self, t: u64, s: f64, v: &[f64], q: &[f64]) {
         self.rec.on_tables(t, s, v, q);
+        if t == self.wait_at {
+            self.wait();
+        }
     }
     fn on_finish(&mut self, t: u64, c: bool) {
         self.rec.on_finish(t, c);
@@ -396,7 +428,7 @@ fn a_watched_recording_is_the_recording_and_live_poses_are_thinned() {
         let (started, go, path, world) = (started.clone(), go.clone(), watched.clone(), world.clone());
         std::thread::spawn(move || {
             let rec = McapRecorder::create(config(&path)).unwrap().with_live(tap);
-            let mut gate = Gate { rec, started, go };
+            let mut gate = Gate { rec, wait_at: 0, started, go };
             let t0 = Instant::now();
             common::run_robot_with(&world, &mut gate, steps, 3, true);
             (t0.elapsed(), gate.rec.take_error().is_none())
@@ -438,4 +470,69 @@ fn a_watched_recording_is_the_recording_and_live_poses_are_thinned() {
     assert!(decisions.len() as f64 <= most, "{} decisions in {elapsed:?}", decisions.len());
     // Each estimate goes with its pose sample.
     assert_eq!(times(topics::POSE_ESTIMATE), poses);
+}
+
+/// A client that connects mid-run to a live-only run (whose steps were skipped while
+/// nobody watched) gets the recording's messages: each decision, reward and pose it
+/// receives is the one a recording of the same run holds at that time (the reward
+/// totals and emission ids picked up where the skipped steps left them).
+#[test]
+fn a_client_joining_mid_run_gets_the_recordings_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("g.mcap");
+    let (steps, join_at) = (2400, 1200);
+    // The same run (seed 5, tables every 200 steps) recorded to a file.
+    let mut rec = McapRecorder::create(RecorderConfig::new(&path)).unwrap();
+    common::run_grid(&common::world("paper-9x9"), &mut rec, steps, 5, 200);
+    assert!(rec.take_error().is_none());
+    drop(rec);
+    let bytes = std::fs::read(&path).unwrap();
+    let mut recorded: HashMap<(String, u64), Vec<Value>> = HashMap::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let v: Value = serde_json::from_slice(&m.data).unwrap();
+        recorded.entry((m.channel.topic.clone(), m.log_time)).or_default().push(v);
+    }
+    // 50× real time while watched: the 1200 steps left take some 2.4 s.
+    let server = LiveServer::start(&local(50.0)).unwrap();
+    let (started, go) = (Arc::new(AtomicBool::new(false)), Arc::new(AtomicBool::new(false)));
+    let run = run_live_waiting_at(&server, steps, join_at, started.clone(), go.clone());
+    wait_for(&started);
+    let mut c = Client::connect(server.addr());
+    let watched = [topics::DECISION, topics::EMITTED, topics::DELIVERED, topics::TF, topics::POSE];
+    c.subscribe(&[watched.as_slice(), &[topics::ARENA]].concat());
+    let (ok, _) = c.until(60.0, |_, t| t == Some(topics::ARENA));
+    assert!(ok, "no arena");
+    go.store(true, Ordering::SeqCst);
+    let mut got = Vec::new();
+    let deadline = Instant::now() + Duration::from_secs(120);
+    while !run.is_finished() && Instant::now() < deadline {
+        got.extend(c.until(0.2, |_, _| false).1);
+    }
+    got.extend(c.until(0.5, |_, _| false).1);
+    run.join().unwrap();
+    server.stop();
+    for topic in watched {
+        let mine: Vec<_> = got.iter().filter(|(t, _, _)| t == topic).collect();
+        assert!(!mine.is_empty(), "nothing on {topic}");
+        for (_, time, v) in mine {
+            assert!(*time >= join_at * 100_000_000, "{topic} at {time}: from a skipped step");
+            // The pose where the first decision shown is taken has the heading of the
+            // last step shown (none here: the start's); the recording's, that of the
+            // step before. Its place is the same.
+            let place = |v: &Value| {
+                let mut v = v.clone();
+                v.as_object_mut().unwrap().remove("rotation");
+                if let Some(p) = v.get_mut("pose") {
+                    p.as_object_mut().unwrap().remove("orientation");
+                }
+                v
+            };
+            let at_join = *time == join_at * 100_000_000 && [topics::TF, topics::POSE].contains(&topic);
+            let same = recorded.get(&(topic.to_string(), *time)).is_some_and(|r| {
+                if at_join { r.iter().any(|x| place(x) == place(v)) } else { r.contains(v) }
+            });
+            assert!(same, "{topic} at {time} is not the recording's: {v}");
+        }
+    }
 }
