@@ -191,31 +191,11 @@ fn cells_markdown(plan: &Plan, stats: &[CellStats]) -> String {
     }
     let shown: Vec<_> =
         HEADLINE.iter().filter(|h| stats.iter().any(|s| s.metrics.contains_key(h.0))).collect();
-    out.push_str("| cell |");
-    for a in &plan.axes {
-        let _ = write!(out, " {a} |");
-    }
-    out.push_str(" seeds |");
-    for h in &shown {
-        let _ = write!(out, " {} |", h.1);
-    }
-    out.push_str("\n|---|");
-    for _ in 0..plan.axes.len() + 1 + shown.len() {
-        out.push_str("---|");
-    }
-    out.push('\n');
-    for s in stats {
-        let _ = write!(out, "| `{}` |", plan.cells[s.cell].id);
-        for a in &plan.axes {
-            let _ = write!(out, " {} |", plan.param(s.cell, a).replace('|', "\\|"));
-        }
-        let _ = write!(out, " {} |", s.n);
-        for h in &shown {
-            let _ =
-                write!(out, " {} |", s.metrics.get(h.0).map_or("–".into(), |m| crate::format::mean(m, h.2)));
-        }
-        out.push('\n');
-    }
+    let headers: Vec<&str> = shown.iter().map(|h| h.1).collect();
+    cell_table(&mut out, plan, stats.iter(), &headers, |s, i| {
+        let h = shown[i];
+        s.metrics.get(h.0).map_or("–".into(), |m| crate::format::mean(m, h.2))
+    });
     for s in stats {
         for note in &s.notes {
             let _ = writeln!(out, "\n- `{}`: {note}", plan.cells[s.cell].id);
@@ -433,16 +413,36 @@ pub fn robot_markdown(plan: &Plan, stats: &[CellStats]) -> Option<String> {
     if rows.is_empty() {
         return None;
     }
-    let mut out = String::from("| cell |");
+    let mut out = String::new();
+    let headers: Vec<&str> = ROBOT_COLUMNS.iter().map(|c| c.1).collect();
+    cell_table(&mut out, plan, rows.into_iter(), &headers, |s, i| {
+        let c = ROBOT_COLUMNS[i];
+        s.metrics.get(c.0).map_or("–".into(), |m| {
+            if c.2 { crate::format::mean_pct(m) } else { crate::format::mean_num(m, 3) }
+        })
+    });
+    Some(out)
+}
+
+/// A markdown table with one row per cell: its id, its axis values, its seed count, then
+/// one column per header, filled by `text(cell, column)`.
+fn cell_table<'a>(
+    out: &mut String,
+    plan: &Plan,
+    rows: impl Iterator<Item = &'a CellStats>,
+    headers: &[&str],
+    text: impl Fn(&CellStats, usize) -> String,
+) {
+    out.push_str("| cell |");
     for a in &plan.axes {
         let _ = write!(out, " {a} |");
     }
     out.push_str(" seeds |");
-    for c in &ROBOT_COLUMNS {
-        let _ = write!(out, " {} |", c.1);
+    for h in headers {
+        let _ = write!(out, " {h} |");
     }
     out.push_str("\n|---|");
-    for _ in 0..plan.axes.len() + 1 + ROBOT_COLUMNS.len() {
+    for _ in 0..plan.axes.len() + 1 + headers.len() {
         out.push_str("---|");
     }
     out.push('\n');
@@ -452,15 +452,11 @@ pub fn robot_markdown(plan: &Plan, stats: &[CellStats]) -> Option<String> {
             let _ = write!(out, " {} |", plan.param(s.cell, a).replace('|', "\\|"));
         }
         let _ = write!(out, " {} |", s.n);
-        for c in &ROBOT_COLUMNS {
-            let text = s.metrics.get(c.0).map_or("–".into(), |m| {
-                if c.2 { crate::format::mean_pct(m) } else { crate::format::mean_num(m, 3) }
-            });
-            let _ = write!(out, " {text} |");
+        for i in 0..headers.len() {
+            let _ = write!(out, " {} |", text(s, i));
         }
         out.push('\n');
     }
-    Some(out)
 }
 
 #[cfg(test)]
