@@ -152,9 +152,18 @@ pub fn run_facts(cfg: &RunConfig, world: &World) -> Vec<(String, String)> {
 
 /// The robot environment of `world` (its `[robot]` table resolved and validated).
 pub fn robot_env(world: &World) -> Result<RobotEnv, LabError> {
+    RobotEnv::new(world, robot_config(world)?).map_err(|e| env_build(world, e))
+}
+
+/// The robot's configuration from `world`'s `[robot]` table; errors name the world file.
+fn robot_config(world: &World) -> Result<RobotConfig, LabError> {
+    RobotConfig::from_world(world).map_err(|e| env_build(world, e))
+}
+
+/// An environment that cannot be built from `world`, naming its file.
+fn env_build(world: &World, e: impl std::fmt::Display) -> LabError {
     let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
-    let cfg = RobotConfig::from_world(world).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))?;
-    RobotEnv::new(world, cfg).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))
+    LabError::EnvBuild(format!("{file}: {e}"))
 }
 
 /// The learner's table shape, (states, actions), in `cfg`'s environment on `world`,
@@ -162,12 +171,7 @@ pub fn robot_env(world: &World) -> Result<RobotEnv, LabError> {
 pub fn table_shape(cfg: &RunConfig, world: &World) -> Result<(usize, usize), LabError> {
     match cfg.env {
         EnvKind::Grid => Ok((world.num_cells(), Move::ALL.len())),
-        EnvKind::Robot => {
-            let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
-            let rc =
-                RobotConfig::from_world(world).map_err(|e| LabError::EnvBuild(format!("{file}: {e}")))?;
-            Ok(rc.actions.table_shape(world.num_cells()))
-        }
+        EnvKind::Robot => Ok(robot_config(world)?.actions.table_shape(world.num_cells())),
     }
 }
 
