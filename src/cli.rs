@@ -49,17 +49,6 @@ pub enum EnvChoice {
     Both,
 }
 
-impl EnvChoice {
-    /// The command-line name.
-    pub fn name(self) -> &'static str {
-        match self {
-            EnvChoice::Grid => "grid",
-            EnvChoice::Robot => "robot",
-            EnvChoice::Both => "both",
-        }
-    }
-}
-
 /// Flags of `mmq paper`.
 #[derive(Debug, Args)]
 pub struct PaperArgs {

@@ -9,7 +9,6 @@
 //! | 3 | bad input (world file, config, impossible parameter) |
 //! | 130 | interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial |
 
-mod beyond;
 mod cli;
 mod live;
 mod paper;
@@ -51,6 +50,9 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
             Some(l) if l.is_input_error() => exit::INPUT,
             Some(_) => exit::RUNTIME,
             None if error.downcast_ref::<mmq_core::WorldError>().is_some() => exit::INPUT,
+            None if error.downcast_ref::<mmq_report::ReportError>().is_some_and(|r| r.is_input_error()) => {
+                exit::INPUT
+            }
             None => exit::RUNTIME,
         };
         Failure { code, error }

@@ -125,6 +125,49 @@ impl Progress {
     }
 }
 
+/// The reports' progress (`mmq_report::Progress`): one bar (or plain lines) per piece of
+/// work, notices on stderr, nothing but errors with `-q`.
+#[derive(Debug)]
+pub struct Bars {
+    quiet: bool,
+    current: Mutex<Option<Progress>>,
+}
+
+impl Bars {
+    /// Bars shown unless `quiet`.
+    pub fn new(quiet: bool) -> Self {
+        Bars { quiet, current: Mutex::new(None) }
+    }
+
+    fn current(&self) -> std::sync::MutexGuard<'_, Option<Progress>> {
+        self.current.lock().unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+}
+
+impl mmq_report::Progress for Bars {
+    fn begin(&self, total: u64, label: &str) {
+        *self.current() = Some(bar(total, label, self.quiet));
+    }
+
+    fn advance(&self, n: u64) {
+        if let Some(p) = self.current().as_ref() {
+            p.inc(n);
+        }
+    }
+
+    fn end(&self) {
+        if let Some(p) = self.current().take() {
+            p.finish_and_clear();
+        }
+    }
+
+    fn notice(&self, text: &str) {
+        if !self.quiet {
+            eprintln!("{text}");
+        }
+    }
+}
+
 /// A duration as "1 h 02 min", "3 min 05 s" or "42 s".
 fn duration(secs: f64) -> String {
     let s = secs.round() as u64;

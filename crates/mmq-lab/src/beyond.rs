@@ -1,10 +1,10 @@
-//! Issue 8, "learners that reach the undelayed limit": the study behind
+//! The learner comparison, "learners that reach the undelayed limit": the study behind
 //! `mmq paper --fig beyond`, as data. Every learner on the paper's 9×9 world and on
 //! the 15×15 maze, under Poisson delays λ ∈ {0, 5, 13, 25} at ε ∈ {0.02, 0.05, 0.1},
 //! and under three non-Poisson delays (uniform 0–26, a Poisson(3)/Poisson(25) mixture
 //! and a WiFi-latency-like histogram) at ε ∈ {0.05, 0.1}; plus the deconvolving
 //! learners told the true delay pmf (an ablation of the estimate) on 9×9. Drawing and
-//! the report live in the CLI (`src/beyond.rs`).
+//! the report live in mmq-report (`comparison.rs`).
 //!
 //! Fixed for every setting: α = 0.1, γ = 0.9, q0 = 10, λ̂max = 50 (the largest delay
 //! the learners are told of), 150,000 steps; seeds per setting: see [`BeyondOptions`]

@@ -1,11 +1,11 @@
-//! `mmq paper --fig beyond`: runs the learner comparison (`mmq_lab::beyond`: every learner,
+//! The learner comparison's section of the paper's report: runs the comparison (`mmq_lab::beyond`: every learner,
 //! two worlds, Poisson and non-Poisson delays, three ε), draws its figures and returns
 //! its section of `report.md` — relative performance, fraction of the optimum, greedy
 //! evaluation and the delay estimate against the truth, each with its 95 % interval.
 
 use std::collections::HashMap;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use mmq_core::World;
@@ -16,38 +16,9 @@ use mmq_lab::{Control, LabError};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
 
-use crate::{Failure, progress};
 use mmq_lab::format::{mean_num as num, mean_pct as pct};
 
-/// What the study adds to the report.
-#[derive(Debug, Default)]
-pub struct Section {
-    /// Markdown.
-    pub md: String,
-    /// Files written (figures and CSV).
-    pub files: Vec<PathBuf>,
-}
-
-fn plot_err(e: mmq_plot::PlotError) -> Failure {
-    Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("{e}") }
-}
-
-impl Section {
-    fn figure(&mut self, written: Vec<PathBuf>, caption: &str) {
-        if let Some(png) = written.iter().find(|p| p.extension().is_some_and(|e| e == "png")) {
-            let name = png.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-            let _ = writeln!(self.md, "\n![{caption}]({name})\n\n*{caption}*\n");
-        }
-        self.files.extend(written);
-    }
-
-    fn csv(&mut self, out: &Path, name: &str, text: &str) -> Result<(), Failure> {
-        let p = lab_paper::write_csv(out, name, text)?;
-        let _ = writeln!(self.md, "Data: [`{name}`]({name})\n");
-        self.files.push(p);
-        Ok(())
-    }
-}
+use crate::{Doc, Progress, ReportError};
 
 /// Finds the outcome of one setting.
 struct Index<'a> {
@@ -72,13 +43,18 @@ impl<'a> Index<'a> {
 }
 
 /// Runs the study and returns its report section.
-pub fn run(o: &BeyondOptions, out: &Path, stop: &AtomicBool, quiet: bool) -> Result<Section, Failure> {
+pub(crate) fn run(
+    o: &BeyondOptions,
+    out: &Path,
+    stop: &AtomicBool,
+    prog: &dyn Progress,
+) -> Result<Doc, ReportError> {
     let settings = beyond::settings();
     let cfgs: Vec<_> = settings.iter().map(|s| beyond::config(o, s)).collect();
-    let pb = progress::bar(lab_paper::total_steps(&cfgs), "beyond", quiet);
-    let prog = |n: u64| pb.inc(n);
-    let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &prog })?;
-    pb.finish_and_clear();
+    prog.begin(lab_paper::total_steps(&cfgs), "beyond");
+    let progress = |n: u64| prog.advance(n);
+    let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &progress })?;
+    prog.end();
     let mut worlds: HashMap<String, World> = HashMap::new();
     for w in beyond::WORLDS {
         worlds
@@ -92,9 +68,9 @@ pub fn run(o: &BeyondOptions, out: &Path, stop: &AtomicBool, quiet: bool) -> Res
     report(o, out, &outs)
 }
 
-fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Failure> {
+fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
     let ix = Index::new(outs);
-    let mut sec = Section::default();
+    let mut sec = Doc::new(out);
     let md = &mut sec.md;
     let _ = writeln!(
         md,
@@ -225,7 +201,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
         chart.y_range = Some((-40.0, 130.0));
         let name = format!("beyond-relative-{world}");
         sec.figure(
-            chart.write(&out.join(&name)).map_err(plot_err)?,
+            chart.write(&out.join(&name))?,
             &format!("{world}, ε = {eps}: relative performance of every learner vs the Poisson mean delay"),
         );
     }
@@ -251,7 +227,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
         chart.y_label = "estimated − true median (steps)".into();
         let name = format!("beyond-delay-{}", k.name());
         sec.figure(
-            chart.write(&out.join(&name)).map_err(plot_err)?,
+            chart.write(&out.join(&name))?,
             &format!(
                 "9×9, ε = 0.05: error of {}'s median delay estimate over time (mean over seeds, 95 % band)",
                 k.name()
@@ -277,12 +253,12 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Section, Fa
         let slug: String =
             delay.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(24).collect();
         sec.figure(
-            chart.write(&out.join(format!("beyond-pmf-{slug}"))).map_err(plot_err)?,
+            chart.write(&out.join(format!("beyond-pmf-{slug}")))?,
             &format!("9×9, ε = 0.05, {label}: estimated delay pmf at the end vs the truth"),
         );
     }
-    sec.csv(out, "beyond.csv", &beyond::outcomes_csv(outs))?;
-    sec.csv(out, "beyond-delay.csv", &beyond::delay_csv(outs)?)?;
-    sec.csv(out, "beyond-pmf.csv", &beyond::pmf_csv(outs)?)?;
+    sec.csv("beyond.csv", &beyond::outcomes_csv(outs))?;
+    sec.csv("beyond-delay.csv", &beyond::delay_csv(outs)?)?;
+    sec.csv("beyond-pmf.csv", &beyond::pmf_csv(outs)?)?;
     Ok(sec)
 }

@@ -1,0 +1,111 @@
+//! Reports of mmq's studies: results from the lab (`mmq-lab`) in, markdown, CSV and
+//! figures (`mmq-plot`) out.
+//!
+//! - [`paper`]: the paper's figures (2, 3, 4, 6–12 and the ε/q0 sensitivity) and the
+//!   learner comparison, run and written as one `report.md` with every picture inlined;
+//! - [`sweep`]: the report of one finished sweep, or of several side by side.
+//!
+//! The library prints nothing: long work reports through a [`Progress`] the caller
+//! supplies (the command line shows a bar), and each entry point returns what it wrote.
+
+mod comparison;
+pub mod paper;
+pub mod sweep;
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use mmq_lab::LabError;
+use mmq_plot::PlotError;
+
+/// Why a report could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// Running the study or reading or writing its files failed.
+    #[error(transparent)]
+    Lab(#[from] LabError),
+    /// A figure could not be drawn or written.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// A figure name that is not one of the paper's.
+    #[error(
+        "`{0}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, beyond or all (comma-separated)"
+    )]
+    UnknownFigure(String),
+    /// A report was asked of no sweep directory.
+    #[error("give a sweep output directory")]
+    NoSweep,
+}
+
+impl ReportError {
+    /// Whether the error is bad input (a world file, a config, a figure name) rather
+    /// than a failure while running or writing.
+    pub fn is_input_error(&self) -> bool {
+        match self {
+            ReportError::Lab(e) => e.is_input_error(),
+            ReportError::Plot(_) => false,
+            ReportError::UnknownFigure(_) | ReportError::NoSweep => true,
+        }
+    }
+}
+
+/// Where long work reports its progress, and notices for the user. Every method has a
+/// silent default.
+pub trait Progress: Sync {
+    /// Work of `total` decision steps, called `label`, begins.
+    fn begin(&self, total: u64, label: &str) {
+        let _ = (total, label);
+    }
+    /// `n` more steps of the current work are done.
+    fn advance(&self, n: u64) {
+        let _ = n;
+    }
+    /// The current work ended.
+    fn end(&self) {}
+    /// A notice worth showing (e.g. files of an earlier report being replaced).
+    fn notice(&self, text: &str) {
+        let _ = text;
+    }
+}
+
+/// Progress that shows nothing.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Silent;
+
+impl Progress for Silent {}
+
+/// A report under construction: its folder, its markdown and the files written so far.
+#[derive(Debug)]
+pub(crate) struct Doc {
+    out: PathBuf,
+    md: String,
+    files: Vec<PathBuf>,
+}
+
+impl Doc {
+    fn new(out: &Path) -> Self {
+        Doc { out: out.to_path_buf(), md: String::new(), files: Vec::new() }
+    }
+
+    /// The base path (no extension) of the figure `name`.
+    fn path(&self, name: &str) -> PathBuf {
+        self.out.join(name)
+    }
+
+    /// A figure's written files: the PNG inlined with its caption.
+    fn figure(&mut self, written: Vec<PathBuf>, caption: &str) {
+        if let Some(png) = written.iter().find(|p| p.extension().is_some_and(|e| e == "png")) {
+            let name = png.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+            let _ = writeln!(self.md, "\n![{caption}]({name})\n\n*{caption}*\n");
+        }
+        self.files.extend(written);
+    }
+
+    /// A table's data as `name` (CSV), linked from the markdown.
+    fn csv(&mut self, name: &str, text: &str) -> Result<(), ReportError> {
+        let p = mmq_lab::paper::write_csv(&self.out, name, text)?;
+        let _ = writeln!(self.md, "Data: [`{name}`]({name})\n");
+        self.files.push(p);
+        Ok(())
+    }
+}

@@ -1,0 +1,731 @@
+//! The paper's report: runs the paper's experiments (mmq-lab), draws every figure
+//! (mmq-plot) and writes `report.md` with the paper's value, ours (mean ± 95 % interval)
+//! and the setting side by side, pictures inlined.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use mmq_core::stats::MeanCi;
+use mmq_core::{Move, World};
+use mmq_lab::Control;
+use mmq_lab::config::EnvKind;
+use mmq_lab::format::mean_pct as pct;
+use mmq_lab::paper::{self, Group, PaperOptions};
+use mmq_plot::{ActionProbabilities, GridHeatmap, LineChart, PolicyArrows, RefLine, Series};
+
+use crate::{Doc, Progress, ReportError};
+
+/// A headline row: label, paper's value, reference value, ours from (groups, optimum).
+type HeadlineRow = (&'static str, &'static str, &'static str, Box<dyn Fn(&[Group], f64) -> String>);
+
+/// Which figures to make.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Part {
+    Fig2,
+    Fig3,
+    Fig4,
+    Fig6,
+    Sensitivity,
+    /// The learner comparison (`src/beyond.rs`); not part of `all`.
+    Beyond,
+}
+
+fn parts(fig: &str) -> Result<Vec<Part>, ReportError> {
+    let mut v = Vec::new();
+    for f in fig.split(',') {
+        match f.trim() {
+            "all" => v.extend([Part::Fig2, Part::Fig3, Part::Fig4, Part::Fig6, Part::Sensitivity]),
+            "2" => v.push(Part::Fig2),
+            "3" => v.push(Part::Fig3),
+            "4" => v.push(Part::Fig4),
+            "6" | "7" | "8" | "9" | "10" | "11" | "12" => v.push(Part::Fig6),
+            "sens" | "sensitivity" => v.push(Part::Sensitivity),
+            "beyond" => v.push(Part::Beyond),
+            other => {
+                return Err(ReportError::UnknownFigure(other.to_string()));
+            }
+        }
+    }
+    v.dedup();
+    Ok(v)
+}
+
+fn num(m: &MeanCi) -> String {
+    mmq_lab::format::mean_num(m, 3)
+}
+
+fn series(name: &str, pts: &[(u64, MeanCi)], scale: f64) -> Series {
+    let x: Vec<f64> = pts.iter().map(|p| p.0 as f64).collect();
+    let y: Vec<f64> = pts.iter().map(|p| scale * p.1.mean).collect();
+    let lo: Vec<f64> = pts.iter().map(|p| scale * (p.1.mean - p.1.ci95)).collect();
+    let hi: Vec<f64> = pts.iter().map(|p| scale * (p.1.mean + p.1.ci95)).collect();
+    Series::new(name, x, y).with_band(lo, hi)
+}
+
+/// What to run and where to write it: the settings of `mmq paper`.
+#[derive(Debug, Clone)]
+pub struct PaperRequest {
+    /// Figures, comma-separated: 2, 3, 4, 6–12 (6 to 12 come together), sens, beyond or all.
+    pub fig: String,
+    /// The fidelities Figs. 6–12 run on (the other figures are the grid's).
+    pub envs: Vec<EnvKind>,
+    /// The smoke-test budget instead of the paper's.
+    pub quick: bool,
+    /// Seeds per setting, instead of the figure's own.
+    pub seeds: Option<u64>,
+    /// Decision steps per run, instead of the figure's own.
+    pub steps: Option<u64>,
+    /// The first seed.
+    pub seed: u64,
+    /// The report's folder.
+    pub out: PathBuf,
+}
+
+impl PaperRequest {
+    /// The fidelities as named on the command line: `grid`, `robot` or `both`.
+    fn env_name(&self) -> &'static str {
+        match self.envs.as_slice() {
+            [one] => one.name(),
+            _ => "both",
+        }
+    }
+}
+
+/// What a finished (or interrupted) report wrote.
+#[derive(Debug, Clone)]
+pub struct PaperOutcome {
+    /// `report.md`.
+    pub report: PathBuf,
+    /// Files written, `report.md` included.
+    pub files: usize,
+    /// Wall time in seconds.
+    pub wall_s: f64,
+}
+
+/// Runs the figures of `a` and writes their report; `stop` ends the runs early (the report
+/// then says it is partial).
+pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result<PaperOutcome, ReportError> {
+    let clock = Instant::now();
+    let parts = parts(&a.fig)?;
+    let replaced = mmq_lab::output::claim_out_dir(&a.out, mmq_lab::output::OutKind::Report)?;
+    if replaced > 0 {
+        prog.notice(&format!("{}: replacing the previous report's {replaced} file(s)", a.out.display()));
+    }
+    let mut rep = Doc::new(&a.out);
+    let envs = &a.envs;
+    let opts_for = |env: EnvKind| {
+        let mut o = PaperOptions::new(a.quick, env);
+        if let Some(s) = a.seeds {
+            o.seeds = s;
+        }
+        if let Some(s) = a.steps {
+            o.steps = s;
+            o.window = (s / 60).max(1);
+        }
+        o.seed = a.seed;
+        o
+    };
+    let grid = opts_for(EnvKind::Grid);
+    let _ = writeln!(
+        rep.md,
+        "# Reproduction: Multiple-Model Q-Learning for Stochastic Reinforcement Delays\n\n\
+         Made by `mmq paper --fig {} --env {}{}` (mmq {}), {} thread(s).\n\
+         Every number is a mean over seeds with its 95 % confidence interval (Student t).\n\
+         Relative performance = cumulative earned reward ÷ that of undelayed Q-learning with the same\n\
+         world, seed, ε, q0 and horizon (eq. 3 without its stray 1/t). Fraction of optimum = earned reward\n\
+         per step ÷ the exact optimal average reward. Greedy evaluation = 1000 steps of the greedy policy\n\
+         from S, no exploration, no updates. \"Reference\" values come from an independent implementation\n\
+         measured on this machine (see docs/reproduction.md).\n",
+        a.fig,
+        a.env_name(),
+        if a.quick { " --quick (smoke-test budget: numbers are not the paper's)" } else { "" },
+        env!("CARGO_PKG_VERSION"),
+        rayon::current_num_threads()
+    );
+    let mut headline: Vec<(EnvKind, Vec<Group>, f64)> = Vec::new();
+    for part in &parts {
+        let o = &grid;
+        match part {
+            Part::Fig2 if envs.contains(&EnvKind::Grid) => fig2(o, &mut rep, stop, prog)?,
+            Part::Fig3 if envs.contains(&EnvKind::Grid) => fig3(o, &mut rep, stop, prog)?,
+            Part::Fig4 if envs.contains(&EnvKind::Grid) => fig4(o, &mut rep, stop, prog)?,
+            Part::Sensitivity if envs.contains(&EnvKind::Grid) => sensitivity(o, &mut rep, stop, prog)?,
+            Part::Beyond => {
+                let mut bo = mmq_lab::beyond::BeyondOptions::new(a.quick);
+                if let Some(n) = a.seeds {
+                    bo.set_all_seeds(n);
+                }
+                if let Some(s) = a.steps {
+                    bo.steps = s;
+                    bo.window = (s / 60).max(1);
+                }
+                bo.seed = a.seed;
+                let sec = crate::comparison::run(&bo, &a.out, stop, prog)?;
+                rep.md.push_str(&sec.md);
+                rep.files.extend(sec.files);
+            }
+            Part::Fig6 => {
+                if envs.contains(&EnvKind::Grid) {
+                    horizon(o, &mut rep, stop, prog)?;
+                }
+                for &env in envs {
+                    let o = opts_for(env);
+                    let (groups, optimum) = fig6(&o, &mut rep, stop, prog)?;
+                    headline.push((env, groups, optimum));
+                }
+            }
+            _ => {}
+        }
+    }
+    if !headline.is_empty() {
+        let mut t = String::from(
+            "\n## Headline (Fig. 6 and Section VII-A): 9×9, Poisson λ = 13, λ̂max = 50, α = 0.1, γ = 0.9\n\n\
+             | quantity | paper | reference | ",
+        );
+        for (env, g, _) in &headline {
+            let _ =
+                write!(t, "ours, {} ({} seeds × {} steps) | ", env.name(), g[0].cfg.seeds, g[0].cfg.steps);
+        }
+        t.push_str("\n|---|---|---|");
+        for _ in &headline {
+            t.push_str("---|");
+        }
+        t.push('\n');
+        let rows: [HeadlineRow; 8] = [
+            (
+                "MMQ relative performance",
+                "≈ 95 %",
+                "99 ± 3 % (ε 0.01, q0 20)",
+                Box::new(|g, _| pct(&g[0].relative())),
+            ),
+            ("Q-learning relative performance", "≈ 0 %", "−4 %", Box::new(|g, _| pct(&g[1].relative()))),
+            (
+                "MMQ fraction of optimum (learning)",
+                "95 % of optimal",
+                "—",
+                Box::new(|g, o| pct(&g[0].fraction(o))),
+            ),
+            (
+                "MMQ fraction of the ε-soft ceiling (learning)",
+                "—",
+                "—",
+                Box::new(|g, _| {
+                    let c = g[0]
+                        .cfg
+                        .load_world()
+                        .ok()
+                        .and_then(|w| mmq_lab::summary::ceiling_per_step(&g[0].cfg, &w));
+                    c.map_or("—".into(), |c| pct(&g[0].fraction_of_ceiling(c)))
+                }),
+            ),
+            (
+                "MMQ regret against the optimum (reward)",
+                "—",
+                "—",
+                Box::new(|g, o| mmq_lab::format::mean_num(&g[0].regret(o), 0)),
+            ),
+            (
+                "MMQ greedy evaluation (reward/step)",
+                "0.59 (optimum 10/17)",
+                "0.41–0.55",
+                Box::new(|g, _| num(&g[0].greedy())),
+            ),
+            ("Q greedy evaluation (reward/step)", "0.0", "—", Box::new(|g, _| num(&g[1].greedy()))),
+            (
+                "undelayed Q-learning (reward/step)",
+                "—",
+                "—",
+                Box::new(|g, _| {
+                    let xs: Vec<f64> = g[0]
+                        .results
+                        .iter()
+                        .filter_map(|r| r.baseline.as_ref())
+                        .map(|b| b.earned_total / b.steps_done.max(1) as f64)
+                        .collect();
+                    num(&mmq_core::stats::mean_ci(&xs))
+                }),
+            ),
+        ];
+        for (label, paper_v, reference, f) in rows.iter() {
+            let _ = write!(t, "| {label} | {paper_v} | {reference} | ");
+            for (_, g, o) in &headline {
+                let _ = write!(t, "{} | ", f(g, *o));
+            }
+            t.push('\n');
+        }
+        let horizon = headline[0].1[0].cfg.steps;
+        let _ = writeln!(
+            t,
+            "\n— : absent. Relative performance is absent where the undelayed baseline earned ≤ 0 in some seed (a \
+             ratio to it has no meaning; the regret and the fraction of the ε-soft ceiling still say how well the learner did).\n\n\
+             Setting of Fig. 6: ε = {}, q0 = {} (the paper states neither; see the sensitivity table and docs/reproduction.md).\n\n\
+             **Horizon.** Every number here is at {horizon} steps (the paper's horizon for Fig. 6 is 150,000). Relative performance \
+             depends on it: the denominator, undelayed Q-learning with the same ε and q0, is itself still learning \
+             (slowly with q0 = 20), so the ratio falls as the baseline catches up: see \"Relative performance \
+             depends on the horizon\" below. The fraction of the ε-soft ceiling (the best any policy exploring \
+             with this ε can earn) and the regret do not have a moving denominator.\n\n\
+             **The robot column**, where present, is the same experiment on the rapier2d robot with its default \
+             (ideal) profile: its controllers close the loop on the true pose, so with noise off its transitions are \
+             the grid's exactly and, with the same seeds and steps, its numbers equal the grid's; the robot's realistic profile (odometry and \
+             localisation) is the one that differs (docs/robot.md).",
+            paper::EXPLORE_FIG_6.epsilon,
+            paper::EXPLORE_FIG_6.q0
+        );
+        // The headline goes first, right after the introduction.
+        let intro_end = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
+        let intro_end = rep.md[intro_end..].find("\n\n").map_or(rep.md.len(), |i| intro_end + i + 2);
+        rep.md.insert_str(intro_end, &t);
+    }
+    let _ = writeln!(rep.md, "\n---\nWall time: {:.1} s.", clock.elapsed().as_secs_f64());
+    if stop.load(std::sync::atomic::Ordering::SeqCst) {
+        // Partial: say so under the title, where a reader looks first.
+        let at = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
+        rep.md.insert_str(
+            at,
+            "**Interrupted** (Ctrl-C or SIGTERM): the runs stopped early, so the figures and numbers \
+             cover only the steps that ran; the settings stated are those asked for.\n\n",
+        );
+    }
+    let report = a.out.join("report.md");
+    mmq_lab::output::write_atomic(&report, rep.md.as_bytes())?;
+    Ok(PaperOutcome { report, files: rep.files.len() + 1, wall_s: clock.elapsed().as_secs_f64() })
+}
+
+fn run(
+    cfgs: Vec<mmq_lab::RunConfig>,
+    label: &str,
+    stop: &AtomicBool,
+    prog: &dyn Progress,
+) -> Result<Vec<Group>, ReportError> {
+    prog.begin(paper::total_steps(&cfgs), label);
+    let progress = |n: u64| prog.advance(n);
+    let groups = paper::run_groups(cfgs, Control { stop, progress: &progress })?;
+    prog.end();
+    Ok(groups)
+}
+
+fn fig2(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress) -> Result<(), ReportError> {
+    let groups = run(paper::fig2_configs(o), "fig 2", stop, prog)?;
+    let pts: Vec<(u64, MeanCi)> = groups.iter().enumerate().map(|(l, g)| (l as u64, g.relative())).collect();
+    let mut chart = LineChart::new(
+        "Fig. 2: 3×3 grid, Q-learning under Poisson delay",
+        "mean delay λ (steps)",
+        "relative performance (%)",
+    );
+    chart.series.push(series("Q-learning, 3×3", &pts, 100.0).with_markers());
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 2: effect of larger delays (Section IV-A)\n\nSetting: 3×3, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds per λ.\n",
+        paper::EXPLORE_FIGS_2_4.epsilon,
+        paper::EXPLORE_FIGS_2_4.q0,
+        o.steps,
+        o.seeds
+    );
+    let _ = writeln!(rep.md, "| λ | paper | reference | ours |\n|---|---|---|---|");
+    for (l, paper_v, reference) in
+        [(0, "100 %", "100 %"), (3, "falls", "≈ 85 %"), (10, "falls", "—"), (20, "lowest", "≈ 81 %")]
+    {
+        let _ = writeln!(rep.md, "| {l} | {paper_v} | {reference} | {} |", pct(&pts[l].1));
+    }
+    differs(
+        rep,
+        "the paper draws one run per λ, falling steadily. Ours (a mean over seeds) falls to about 82 % by λ = 3 \
+         and then stays within a few points, with a small rise around λ = 6–8 that the paper neither shows nor rules \
+         out: on a 3×3 world a reward credited to the wrong step still lands near its cause, so performance never \
+         collapses. The paper states neither ε nor q0 for this figure (ours: 0.05 and 10).",
+    );
+    rep.figure(chart.write(&rep.path("fig2"))?, "Fig. 2: relative performance vs mean delay λ, 3×3");
+    let mut csv = String::from("lambda,mean,ci95,n\n");
+    for (l, m) in &pts {
+        let _ = writeln!(csv, "{l},{},{},{}", m.mean, m.ci95, m.n);
+    }
+    rep.csv("fig2.csv", &csv)
+}
+
+fn fig3(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress) -> Result<(), ReportError> {
+    let groups = run(paper::fig3_configs(o), "fig 3", stop, prog)?;
+    let names = ["3×3", "5×5", "9×9"];
+    let refs = ["≈ 85 %", "≈ 45 %", "≈ 1 %"];
+    let mut chart =
+        LineChart::new("Fig. 3: Q-learning, λ = 5, growing worlds", "step", "relative performance (%)");
+    let mut rows = Vec::new();
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 3: effect of environment size (Section IV-B)\n\nSetting: λ = 5, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        paper::EXPLORE_FIGS_2_4.epsilon,
+        paper::EXPLORE_FIGS_2_4.q0,
+        o.steps,
+        o.seeds
+    );
+    let _ = writeln!(rep.md, "| world | paper | reference | ours (end) |\n|---|---|---|---|");
+    for ((g, name), r) in groups.iter().zip(names).zip(refs) {
+        let c = g.relative_curve();
+        chart.series.push(series(name, &c, 100.0));
+        let _ = writeln!(rep.md, "| {name} | falls with size | {r} | {} |", pct(&g.relative()));
+        rows.push((name.to_string(), c));
+    }
+    differs(
+        rep,
+        "none in the trend (performance falls with the world's size). The paper states neither ε, q0 nor the \
+         horizon for this figure (ours: 0.05, 10 and 150,000 steps, the horizon of its Fig. 4).",
+    );
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    chart.y_range = Some((-20.0, 140.0));
+    rep.figure(chart.write(&rep.path("fig3"))?, "Fig. 3: relative performance over time, λ = 5");
+    rep.csv("fig3.csv", &paper::curve_csv("world", &rows))
+}
+
+fn fig4(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress) -> Result<(), ReportError> {
+    let groups = run(paper::fig4_configs(o), "fig 4", stop, prog)?;
+    let pts: Vec<(i64, MeanCi)> =
+        groups.iter().enumerate().map(|(k, g)| (k as i64 - 10, g.relative())).collect();
+    let mut chart = LineChart::new(
+        "Fig. 4: 9×9, λ = 17, fixed delay estimate λ̂ = λ + i",
+        "error of the delay estimate i = λ̂ − λ (steps)",
+        "relative performance (%)",
+    );
+    let x: Vec<f64> = pts.iter().map(|p| p.0 as f64).collect();
+    let y: Vec<f64> = pts.iter().map(|p| 100.0 * p.1.mean).collect();
+    let lo: Vec<f64> = pts.iter().map(|p| 100.0 * (p.1.mean - p.1.ci95)).collect();
+    let hi: Vec<f64> = pts.iter().map(|p| 100.0 * (p.1.mean + p.1.ci95)).collect();
+    chart.series.push(Series::new("fixed-delay Q (eq. 4)", x, y).with_band(lo, hi).with_markers());
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    let best =
+        pts.iter().max_by(|a, b| a.1.mean.total_cmp(&b.1.mean)).map(|p| (p.0, p.1)).unwrap_or((0, pts[10].1));
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 4: errors in the delay estimate (Section V)\n\nSetting: 9×9, Poisson λ = 17, fixed-delay Q (eq. 4) with λ̂ = λ + i, ε = {}, q0 = {}, {} steps, {} seeds per i.\n",
+        paper::EXPLORE_FIGS_2_4.epsilon,
+        paper::EXPLORE_FIGS_2_4.q0,
+        o.steps,
+        o.seeds
+    );
+    let _ = writeln!(rep.md, "| quantity | paper | reference | ours |\n|---|---|---|---|");
+    let _ = writeln!(rep.md, "| peak at i | near 0 (Poisson-shaped) | i ∈ [−1, +2] | i = {} |", best.0);
+    let _ = writeln!(rep.md, "| peak value | — | ≈ 50 % | {} |", pct(&best.1));
+    let _ = writeln!(rep.md, "| i = −10 | ≈ 0 | ≈ 0 | {} |", pct(&pts[0].1));
+    let _ = writeln!(rep.md, "| i = +10 | ≈ 0 | ≈ 0 | {} |", pct(&pts[20].1));
+    differs(
+        rep,
+        "the paper's peak is at i = 0; ours is at i = −1 or 0. For a Poisson(17) delay P(d = 16) = P(d = 17), so \
+         λ̂ = 16 and 17 are equally good in expectation and the seeds' noise picks either.",
+    );
+    rep.figure(
+        chart.write(&rep.path("fig4"))?,
+        "Fig. 4: performance after learning vs delay-estimate error i",
+    );
+    let mut csv = String::from("i,lambda_hat,mean,ci95,n\n");
+    for (i, m) in &pts {
+        let _ = writeln!(csv, "{i},{},{},{},{}", 17 + i, m.mean, m.ci95, m.n);
+    }
+    rep.csv("fig4.csv", &csv)
+}
+
+fn sensitivity(
+    o: &PaperOptions,
+    rep: &mut Doc,
+    stop: &AtomicBool,
+    prog: &dyn Progress,
+) -> Result<(), ReportError> {
+    let groups = run(paper::sensitivity_configs(o), "ε, q0", stop, prog)?;
+    let optimum = paper::optimum_of(o, "paper-9x9")?;
+    let _ = writeln!(
+        rep.md,
+        "\n## Sensitivity of Fig. 6 to the unstated ε and q0 (grid)\n\n9×9, λ = 13, λ̂max = 50, {} steps, {} seeds.\n",
+        o.steps, o.seeds
+    );
+    let _ = writeln!(
+        rep.md,
+        "| ε | q0 | learner | relative | reference | fraction of optimum | greedy evaluation |\n|---|---|---|---|---|---|---|"
+    );
+    let refs = ["74 ± 2 %", "−2 ± 2 %", "89 ± 2 %", "−2 %", "99 ± 3 %", "−4 %"];
+    let mut csv = String::from(
+        "epsilon,q0,learner,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,n\n",
+    );
+    for (g, r) in groups.iter().zip(refs) {
+        let p = g.cfg.learner.params;
+        let (rel, frac, gr) = (g.relative(), g.fraction(optimum), g.greedy());
+        let _ = writeln!(
+            rep.md,
+            "| {} | {} | {} | {} | {r} | {} | {} |",
+            p.epsilon,
+            p.q0,
+            g.cfg.learner.kind.name(),
+            pct(&rel),
+            pct(&frac),
+            num(&gr)
+        );
+        let _ = writeln!(
+            csv,
+            "{},{},{},{},{},{},{},{},{},{}",
+            p.epsilon,
+            p.q0,
+            g.cfg.learner.kind.name(),
+            rel.mean,
+            rel.ci95,
+            frac.mean,
+            frac.ci95,
+            gr.mean,
+            gr.ci95,
+            rel.n
+        );
+    }
+    rep.md.push('\n');
+    differs(
+        rep,
+        "the paper states neither ε nor q0. Its ≈ 95 % for MMQ is reached only with little exploration \
+         (ε ≤ 0.02) and an optimistic q0; at ε = 0.05 a faithful MMQ stays near 74 % (docs/algorithms/mmq.md \
+         explains why: the target's max over 51 × 4 noisy estimates).",
+    );
+    rep.csv("sensitivity.csv", &csv)
+}
+
+fn fig6(
+    o: &PaperOptions,
+    rep: &mut Doc,
+    stop: &AtomicBool,
+    prog: &dyn Progress,
+) -> Result<(Vec<Group>, f64), ReportError> {
+    let env = o.env.name();
+    let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
+    let groups = run(paper::fig6_configs(o), &format!("fig 6 {env}"), stop, prog)?;
+    let world = paper::world_of(o, "paper-9x9")?;
+    let optimum = mmq_core::optimum(&world).gain;
+    let (mmq, q) = (&groups[0], &groups[1]);
+    let _ = writeln!(
+        rep.md,
+        "\n## Fig. 6{}: MMQ vs Q-learning under Poisson delay (Section VII), {env}\n\nSetting: 9×9 {env}, λ = 13, λ̂max = 50, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        if o.env == EnvKind::Robot { " on the robot" } else { "" },
+        paper::EXPLORE_FIG_6.epsilon,
+        paper::EXPLORE_FIG_6.q0,
+        o.steps,
+        o.seeds
+    );
+    let (cm, cq) = (mmq.relative_curve(), q.relative_curve());
+    let mut chart = LineChart::new(
+        format!("Fig. 6{sfx}: 9×9 {env}, λ = 13: MMQ vs Q-learning"),
+        if o.env == EnvKind::Robot { "primitive" } else { "step" },
+        "relative performance (%)",
+    );
+    chart.series.push(series("MMQ (λ̂max = 50)", &cm, 100.0));
+    chart.series.push(series("Q-learning", &cq, 100.0));
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    chart.ref_lines.push(RefLine::new("paper: MMQ ≈ 95 %", 95.0));
+    // Early ratios divide by a baseline that has earned almost nothing yet; clip them.
+    chart.y_range = Some((-60.0, 200.0));
+    rep.figure(
+        chart.write(&rep.path(&format!("fig6{sfx}")))?,
+        &format!("Fig. 6{sfx}: relative performance over time"),
+    );
+    rep.csv(
+        &format!("fig6{sfx}.csv"),
+        &paper::curve_csv("learner", &[("mmq".into(), cm), ("q".into(), cq)]),
+    )?;
+    // Earned and received reward per step over time.
+    let mut chart = LineChart::new(
+        format!("Fig. 6{sfx}: earned and received reward, {env}"),
+        if o.env == EnvKind::Robot { "primitive" } else { "step" },
+        "reward per step (window mean)",
+    );
+    let curves = [
+        ("MMQ earned", mmq.earned_curve()),
+        ("MMQ received", mmq.received_curve()),
+        ("Q earned", q.earned_curve()),
+        ("Q received", q.received_curve()),
+    ];
+    for (n, c) in &curves {
+        chart.series.push(series(n, c, 1.0));
+    }
+    chart.ref_lines.push(RefLine::new("exact optimum 10/17", optimum));
+    rep.figure(
+        chart.write(&rep.path(&format!("fig6-rewards{sfx}")))?,
+        &format!("Fig. 6{sfx}: earned (emitted) and received (delivered) reward per step"),
+    );
+    let rows: Vec<(String, Vec<(u64, MeanCi)>)> =
+        curves.iter().map(|(n, c)| (n.replace(' ', "_"), c.clone())).collect();
+    rep.csv(&format!("fig6-rewards{sfx}.csv"), &paper::curve_csv("series", &rows))?;
+    delay_window(mmq, rep, stop, sfx)?;
+    differs(
+        rep,
+        "the paper's text is ambiguous on two points. Its eq. 3 divides by t as well (a stray 1/t: we report \
+         the plain ratio of cumulative rewards), and it calls MMQ's result \"95 % of optimal\" where its figure shows \
+         relative performance; our fraction of the exact optimum while learning is lower than our relative \
+         performance because exploration and the early steps cost reward that the baseline loses too. Early in \
+         the run the ratio divides by a baseline that has earned almost nothing; the chart cuts those points and \
+         says so in its title. Ratios above 100 % come from the baseline: with an optimistic q0, undelayed \
+         Q-learning explores for longer.",
+    );
+    maps(&world, mmq, q, rep, sfx)?;
+    Ok((groups, optimum))
+}
+
+/// "Where we differ from the paper" next to a figure.
+fn differs(rep: &mut Doc, text: &str) {
+    let _ = writeln!(rep.md, "\n**Where we differ from the paper:** {text}\n");
+}
+
+/// Relative performance against the horizon: Fig. 6's MMQ setting run for several times
+/// its steps, read at every horizon up to that.
+fn horizon(
+    o: &PaperOptions,
+    rep: &mut Doc,
+    stop: &AtomicBool,
+    prog: &dyn Progress,
+) -> Result<(), ReportError> {
+    let groups = run(paper::horizon_configs(o), "horizon", stop, prog)?;
+    let curve = groups[0].relative_curve();
+    let _ = writeln!(
+        rep.md,
+        "\n## Relative performance depends on the horizon\n\n\
+         Fig. 6's MMQ setting (9×9 grid, λ = 13, ε = {}, q0 = {}, {} seeds) run for {} × its {} steps. Relative \
+         performance at horizon T is cumulative earned reward up to T ÷ that of undelayed Q-learning up to T; the \
+         baseline is itself still learning, so the ratio moves with T. Every headline number states its horizon.\n",
+        paper::EXPLORE_FIG_6.epsilon,
+        paper::EXPLORE_FIG_6.q0,
+        groups[0].cfg.seeds,
+        paper::HORIZON_FACTOR,
+        o.steps
+    );
+    let mut t = String::from("| horizon (steps) | MMQ relative performance |\n|---|---|\n");
+    for k in 1..=paper::HORIZON_FACTOR {
+        let at = o.steps * k;
+        if let Some((step, m)) = curve.iter().rev().find(|(s, _)| *s <= at) {
+            let _ = writeln!(t, "| {step} | {} |", pct(m));
+        }
+    }
+    rep.md.push_str(&t);
+    let mut chart = LineChart::new(
+        "MMQ against the horizon, 9×9, λ = 13",
+        "horizon T (steps)",
+        "relative performance up to T (%)",
+    );
+    chart.series.push(series("MMQ (λ̂max = 50)", &curve, 100.0));
+    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+    chart.ref_lines.push(RefLine::new("paper: MMQ ≈ 95 %", 95.0));
+    chart.y_range = Some((0.0, 200.0));
+    rep.figure(
+        chart.write(&rep.path("horizon"))?,
+        "Relative performance against the horizon (the ratio at the paper's horizon is the headline)",
+    );
+    rep.csv("horizon.csv", &paper::curve_csv("learner", &[("mmq".into(), curve)]))
+}
+
+/// Steps shown by the reward-timing figure.
+const WINDOW_STEPS: usize = 150;
+
+/// Where the delay shows: per-step earned and received reward over the last steps of the
+/// first MMQ seed (run again with a recorder; the run is the group's, bit for bit).
+fn delay_window(mmq: &Group, rep: &mut Doc, stop: &AtomicBool, sfx: &str) -> Result<(), ReportError> {
+    let Some(first) = mmq.results.first() else { return Ok(()) };
+    let ctl = Control { stop, progress: &|_| {} };
+    let steps = paper::last_steps(&mmq.cfg, first.seed, WINDOW_STEPS, ctl)?;
+    if steps.is_empty() {
+        return Ok(());
+    }
+    let x: Vec<f64> = steps.iter().map(|s| s.t as f64).collect();
+    let unit = if mmq.cfg.env == EnvKind::Robot { "primitive" } else { "step" };
+    let mut chart = LineChart::new(
+        format!("Fig. 6{sfx}: rewards earned and received, MMQ seed {}", first.seed),
+        unit,
+        "reward at the step",
+    );
+    chart.series.push(
+        Series::new("earned (emitted)", x.clone(), steps.iter().map(|s| s.earned).collect()).with_markers(),
+    );
+    chart.series.push(
+        Series::new("received (delivered)", x, steps.iter().map(|s| s.received).collect()).with_markers(),
+    );
+    rep.figure(
+        chart.write(&rep.path(&format!("fig6-delay{sfx}")))?,
+        &format!(
+            "Fig. 6{sfx}: the last {} {unit}s of the first MMQ seed — each +10 (goal) or −1 (wall) arrives a random delay after it was earned, sometimes several in one {unit} (summed)",
+            steps.len()
+        ),
+    );
+    let mut csv = String::from("step,earned,received\n");
+    for s in &steps {
+        let _ = writeln!(csv, "{},{},{}", s.t, s.earned, s.received);
+    }
+    rep.csv(&format!("fig6-delay{sfx}.csv"), &csv)
+}
+
+/// Figs. 7–12 from the first seed of each learner (a representative run, as in the paper).
+fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Doc, sfx: &str) -> Result<(), ReportError> {
+    let _ = writeln!(
+        rep.md,
+        "\n### Figs. 7–12{sfx}: visits and policies after learning (seed {})\n",
+        mmq.results[0].seed
+    );
+    differs(
+        rep,
+        "the paper shows one run; these maps are of the first seed. Its eq. 8 (the probabilistic policy) is not \
+         normalised — its probabilities need not sum to 1 — so the wedges show it divided by its sum \
+         (docs/algorithms/deviations.md).",
+    );
+    let mut csv = String::from("learner,cell,row,col,visits,greedy,p_N,p_E,p_S,p_W\n");
+    for (g, name, figs) in [(mmq, "MMQ", [7, 8, 9]), (q, "Q-learning", [10, 11, 12])] {
+        let r = &g.results[0];
+        let cells = world.num_cells();
+        let visits: Vec<f64> = (0..cells).map(|c| r.run.visits.get(c).copied().unwrap_or(0) as f64).collect();
+        let h = GridHeatmap::new(
+            format!("Fig. {}{sfx}: visits during learning, {name}", figs[0]),
+            world,
+            visits.clone(),
+            "visits",
+        )
+        .log();
+        rep.figure(
+            h.write(&rep.path(&format!("fig{}{sfx}", figs[0])))?,
+            &format!("Fig. {}{sfx}: how often each state is visited during learning, {name}", figs[0]),
+        );
+        let arrows: Vec<u8> = (0..cells)
+            .map(|c| if world.is_free(c) && c != world.goal { r.policy_arrows[c] } else { 0 })
+            .collect();
+        let p = PolicyArrows::new(format!("Fig. {}{sfx}: greedy policy, {name}", figs[1]), world, arrows)
+            .with_path(r.greedy_path.iter().copied().take(40).collect());
+        rep.figure(p.write(&rep.path(&format!("fig{}{sfx}", figs[1])))?, &format!("Fig. {}{sfx}: deterministic policy, {name} (shaded: greedy path from S; greedy evaluation {:.3}/step)", figs[1], r.greedy_per_step));
+        let probs: Vec<[f64; 4]> = (0..cells)
+            .map(|c| {
+                let v = &r.policy_probs[c];
+                if world.is_free(c) && v.len() == 4 { [v[0], v[1], v[2], v[3]] } else { [0.0; 4] }
+            })
+            .collect();
+        let ap = ActionProbabilities::new(
+            format!("Fig. {}{sfx}: probabilistic policy (eq. 8, normalised), {name}", figs[2]),
+            world,
+            probs.clone(),
+        );
+        rep.figure(
+            ap.write(&rep.path(&format!("fig{}{sfx}", figs[2])))?,
+            &format!("Fig. {}{sfx}: probabilistic policy, {name}", figs[2]),
+        );
+        for c in 0..cells {
+            let (row, col) = world.row_col(c);
+            let greedy: String = Move::ALL
+                .iter()
+                .enumerate()
+                .filter(|(a, _)| arrows_of(r, c) & (1 << a) != 0)
+                .map(|(_, m)| m.name())
+                .collect();
+            let pr = probs[c];
+            let _ = writeln!(
+                csv,
+                "{},{c},{row},{col},{},{greedy},{},{},{},{}",
+                name.to_lowercase(),
+                visits[c],
+                pr[0],
+                pr[1],
+                pr[2],
+                pr[3]
+            );
+        }
+    }
+    rep.csv(&format!("fig7-12{sfx}.csv"), &csv)
+}
+
+fn arrows_of(r: &mmq_lab::SeedResult, c: usize) -> u8 {
+    r.policy_arrows.get(c).copied().unwrap_or(0)
+}

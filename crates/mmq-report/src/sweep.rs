@@ -1,0 +1,410 @@
+//! The report of finished sweeps: per-cell means with 95 % intervals as CSV and
+//! markdown, a figure per numeric swept axis, and, where the sweep has them, the tables
+//! per learner and setting, learning curves and the robot's diagnostics with per-cell
+//! heat maps. Several sweeps (e.g. a grid sweep with 20 seeds and a robot sweep with 5)
+//! are reported side by side.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use mmq_core::World;
+use mmq_lab::LabError;
+use mmq_lab::sweep::{
+    CellStats, HEADLINE, Plan, axis_number, cell_stats, combine, combined_markdown, learner_labels,
+    learner_markdown, load_results, read_manifest, robot_markdown, settings, summary_csv, summary_markdown,
+};
+use mmq_plot::{GridHeatmap, LineChart, RefLine, Series};
+
+use crate::ReportError;
+
+/// What a sweep report wrote.
+#[derive(Debug, Clone)]
+pub struct SweepReport {
+    /// The sweep's name (the combined name for several).
+    pub name: String,
+    /// Cells reported.
+    pub cells: usize,
+    /// Jobs finished, of `jobs`.
+    pub done: usize,
+    /// Jobs planned.
+    pub jobs: usize,
+    /// `summary.csv`.
+    pub csv: PathBuf,
+    /// `report.md`.
+    pub markdown: PathBuf,
+    /// Figures written.
+    pub figures: usize,
+}
+
+/// Writes the report of the sweeps in `dirs` (one, or several side by side) to `out`
+/// (default: `report/` in the first).
+pub fn report(dirs: &[PathBuf], out: Option<&Path>) -> Result<SweepReport, ReportError> {
+    // Per sweep: its plan, statistics, and the directory its world paths are relative to.
+    let mut parts = Vec::new();
+    let mut bases = Vec::new();
+    for dir in dirs {
+        let manifest = read_manifest(dir)?;
+        let results = load_results(dir, &manifest.plan);
+        let stats = cell_stats(&manifest.plan, &results);
+        bases.push(Path::new(&manifest.spec_file).parent().map(Path::to_path_buf).unwrap_or_default());
+        parts.push((manifest.plan, stats));
+    }
+    let first = dirs.first().ok_or(ReportError::NoSweep)?;
+    let out = out.map_or_else(|| first.join("report"), Path::to_path_buf);
+    std::fs::create_dir_all(&out).map_err(|source| LabError::Io { path: out.clone(), source })?;
+    let (plan, stats, mut md) = if let [(p, s)] = parts.as_slice() {
+        (p.clone(), s.clone(), summary_markdown(p, s))
+    } else {
+        let (p, s) = combine(&parts);
+        let md = combined_markdown(&parts, &p, &s);
+        (p, s, md)
+    };
+    // The sweep (index into `bases`) of every cell of `plan`.
+    let part_of: Vec<usize> =
+        parts.iter().enumerate().flat_map(|(k, p)| std::iter::repeat_n(k, p.0.cells.len())).collect();
+    // Figures against an axis assume a product of axes: one sweep only.
+    let figures = if parts.len() == 1 { figures(&plan, &stats, &out)? } else { Vec::new() };
+    let mut n_figures = figures.len();
+    if !figures.is_empty() {
+        md.push_str("\n## Figures\n\n");
+        for (axis, file) in &figures {
+            let _ = writeln!(md, "![{axis}]({file})\n");
+        }
+    }
+    n_figures += bridge_sections(&plan, &stats, &out, &mut md, |c| {
+        bases.get(part_of.get(c).copied().unwrap_or(0)).cloned().unwrap_or_default()
+    })?;
+    let csv_path = out.join("summary.csv");
+    mmq_lab::output::write_atomic(&csv_path, summary_csv(&plan, &stats).as_bytes())?;
+    let md_path = out.join("report.md");
+    mmq_lab::output::write_atomic(&md_path, md.as_bytes())?;
+    let done: usize = stats.iter().map(|s| s.n).sum();
+    let jobs: usize = parts.iter().map(|p| p.0.jobs()).sum();
+    Ok(SweepReport {
+        name: plan.name.clone(),
+        cells: plan.cells.len(),
+        done,
+        jobs,
+        csv: csv_path,
+        markdown: md_path,
+        figures: n_figures,
+    })
+}
+
+/// Sections for sweeps with a learner axis, learning curves or robot diagnostics: the
+/// tables per learner and setting, the change from the first setting as a figure, the
+/// learning curves side by side, the robot's diagnostics and their per-cell heat maps.
+/// Returns the number of figures written.
+fn bridge_sections(
+    plan: &Plan,
+    stats: &[CellStats],
+    out: &Path,
+    md: &mut String,
+    base_of: impl Fn(usize) -> PathBuf,
+) -> Result<usize, ReportError> {
+    let sets = settings(plan);
+    let mut n = 0;
+    let tables: Vec<String> = [
+        (
+            "perf/fraction_of_optimum",
+            "Fraction of the optimum (reward per decision ÷ the grid's optimal gain)",
+            true,
+        ),
+        ("perf/relative", "Relative performance (÷ undelayed Q-learning in the same setting, eq. 3)", true),
+        ("eval/greedy_fraction_of_optimum", "Greedy evaluation from S after learning (of optimum)", true),
+    ]
+    .iter()
+    .filter_map(|(m, label, pct)| learner_markdown(plan, stats, m, label, *pct))
+    .collect();
+    if !tables.is_empty() {
+        md.push_str("\n## Per learner and setting\n\n");
+        let names: Vec<String> =
+            sets.iter().enumerate().map(|(i, s)| format!("{} = `{}`", i + 1, s.0)).collect();
+        let _ = writeln!(md, "Settings: {}.\n", names.join("; "));
+        for t in &tables {
+            md.push_str(t);
+        }
+        if gap_figure(plan, stats, &sets, out)? {
+            md.push_str("![fraction of the optimum per setting](by-setting.png)\n\n");
+            n += 1;
+        }
+    }
+    let curves = curve_figures(stats, &sets, out)?;
+    if !curves.is_empty() {
+        md.push_str("\n## Learning curves\n\nReward earned per decision in equal parts of the run, mean over seeds with its 95 % interval (band), per setting.\n\n");
+        image_table(md, &curves);
+        n += curves.len();
+    }
+    if let Some(t) = robot_markdown(plan, stats) {
+        md.push_str("\n## Robot diagnostics\n\nPer cell, means over seeds (see docs/robot.md for the definitions).\n\n");
+        md.push_str(&t);
+        let maps = heat_maps(plan, stats, &sets, out, base_of)?;
+        if !maps.is_empty() {
+            md.push_str("\nPer grid cell, mean over the learners (each a mean over its seeds): grid mismatch of the steps that started in the cell, belief error of the steps that ended in it; light grey: no step.\n\n");
+            image_table(md, &maps);
+            n += maps.len();
+        }
+    }
+    Ok(n)
+}
+
+/// Images two to a row, each with its caption.
+fn image_table(md: &mut String, images: &[(String, String)]) {
+    for row in images.chunks(2) {
+        md.push('|');
+        for (caption, _) in row {
+            let _ = write!(md, " {} |", caption.replace('|', "\\|"));
+        }
+        md.push_str(if row.len() == 2 { "\n|---|---|\n|" } else { "\n|---|\n|" });
+        for (caption, file) in row {
+            let _ = write!(md, " ![{}]({file}) |", caption.replace('|', "\\|"));
+        }
+        md.push_str("\n\n");
+    }
+}
+
+/// The mean of `metric` in cell `c`, if finite.
+fn mean_of(stats: &[CellStats], c: usize, metric: &str) -> Option<mmq_core::stats::MeanCi> {
+    stats.iter().find(|s| s.cell == c)?.metrics.get(metric).copied().filter(|m| m.mean.is_finite())
+}
+
+/// Fraction of the optimum per setting (x: the setting's number), a series per learner.
+fn gap_figure(
+    plan: &Plan,
+    stats: &[CellStats],
+    sets: &[(String, Vec<(String, usize)>)],
+    out: &Path,
+) -> Result<bool, ReportError> {
+    let metric = "perf/fraction_of_optimum";
+    let mut chart = LineChart::new(
+        format!("{}: fraction of the optimum per setting", plan.name),
+        "setting (numbered as in the tables)",
+        "fraction of optimum (%)",
+    );
+    for l in learner_labels(sets) {
+        let pts: Vec<(f64, mmq_core::stats::MeanCi)> = sets
+            .iter()
+            .enumerate()
+            .filter_map(|(i, s)| {
+                let c = s.1.iter().find(|x| x.0 == l)?.1;
+                Some(((i + 1) as f64, mean_of(stats, c, metric)?))
+            })
+            .collect();
+        if pts.is_empty() {
+            continue;
+        }
+        let x = pts.iter().map(|p| p.0).collect();
+        let y = pts.iter().map(|p| 100.0 * p.1.mean).collect();
+        let lo = pts.iter().map(|p| 100.0 * (p.1.mean - p.1.ci95)).collect();
+        let hi = pts.iter().map(|p| 100.0 * (p.1.mean + p.1.ci95)).collect();
+        chart.series.push(Series::new(l, x, y).with_band(lo, hi).with_markers());
+    }
+    if chart.series.is_empty() {
+        return Ok(false);
+    }
+    chart.write(&out.join("by-setting"))?;
+    Ok(true)
+}
+
+/// A learning-curve figure per setting, a series per learner, from the `curve/<step>`
+/// metrics; `(caption, file)`.
+fn curve_figures(
+    stats: &[CellStats],
+    sets: &[(String, Vec<(String, usize)>)],
+    out: &Path,
+) -> Result<Vec<(String, String)>, ReportError> {
+    let mut files = Vec::new();
+    for (i, (label, cells)) in sets.iter().enumerate() {
+        let mut chart = LineChart::new(format!("{}. {label}", i + 1), "decision step", "reward per decision");
+        let mut optimum = None;
+        for (learner, c) in cells {
+            let Some(st) = stats.iter().find(|s| s.cell == *c) else { continue };
+            let mut pts: Vec<(f64, mmq_core::stats::MeanCi)> = st
+                .metrics
+                .iter()
+                .filter_map(|(k, m)| Some((k.strip_prefix("curve/")?.parse::<f64>().ok()?, *m)))
+                .filter(|p| p.1.mean.is_finite())
+                .collect();
+            if pts.is_empty() {
+                continue;
+            }
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            if let (Some(e), Some(f)) =
+                (mean_of(stats, *c, "reward/earned_per_step"), mean_of(stats, *c, "perf/fraction_of_optimum"))
+                && f.mean > 0.0
+            {
+                optimum = Some(e.mean / f.mean);
+            }
+            let x = pts.iter().map(|p| p.0).collect();
+            let y = pts.iter().map(|p| p.1.mean).collect();
+            let lo = pts.iter().map(|p| p.1.mean - p.1.ci95).collect();
+            let hi = pts.iter().map(|p| p.1.mean + p.1.ci95).collect();
+            chart.series.push(Series::new(learner.clone(), x, y).with_band(lo, hi));
+        }
+        if chart.series.is_empty() {
+            continue;
+        }
+        if let Some(o) = optimum {
+            chart.ref_lines.push(RefLine::new("optimum", o));
+        }
+        let name = format!("curves-{}", i + 1);
+        chart.write(&out.join(&name))?;
+        files.push((format!("{}. {label}", i + 1), format!("{name}.png")));
+    }
+    Ok(files)
+}
+
+/// Heat maps of the per-cell grid mismatch and belief error (`env/robot/cells/...`), per
+/// setting, averaged over the learners; `(caption, file)`.
+fn heat_maps(
+    plan: &Plan,
+    stats: &[CellStats],
+    sets: &[(String, Vec<(String, usize)>)],
+    out: &Path,
+    base_of: impl Fn(usize) -> PathBuf,
+) -> Result<Vec<(String, String)>, ReportError> {
+    let groups: Vec<(String, Vec<usize>)> = if sets.is_empty() {
+        (0..plan.cells.len()).map(|c| (plan.cells[c].id.clone(), vec![c])).collect()
+    } else {
+        sets.iter().map(|s| (s.0.clone(), s.1.iter().map(|x| x.1).collect())).collect()
+    };
+    let mut files = Vec::new();
+    for (i, (label, cells)) in groups.iter().enumerate() {
+        let Some(&c0) = cells.first() else { continue };
+        let world_text = plan.param(c0, "world");
+        let p = base_of(c0).join(world_text);
+        let Ok(world) = World::load(&p).or_else(|_| World::load(world_text)) else { continue };
+        for (what, caption) in [("grid_mismatch", "grid mismatch"), ("belief_error", "belief error")] {
+            let prefix = format!("env/robot/cells/{what}/");
+            let mut sum = vec![0.0; world.num_cells()];
+            let mut count = vec![0usize; world.num_cells()];
+            for &c in cells {
+                let Some(st) = stats.iter().find(|s| s.cell == c) else { continue };
+                for (k, m) in &st.metrics {
+                    let Some(rc) = k.strip_prefix(&prefix) else { continue };
+                    let Some((r, col)) = rc.strip_prefix('r').and_then(|x| x.split_once('c')) else {
+                        continue;
+                    };
+                    let (Ok(r), Ok(col)) = (r.parse::<usize>(), col.parse::<usize>()) else { continue };
+                    if r >= 1 && col >= 1 && r <= world.height && col <= world.width && m.mean.is_finite() {
+                        let idx = (r - 1) * world.width + (col - 1);
+                        sum[idx] += m.mean;
+                        count[idx] += 1;
+                    }
+                }
+            }
+            if count.iter().all(|&k| k == 0) {
+                continue;
+            }
+            let values: Vec<f64> = sum
+                .iter()
+                .zip(&count)
+                .map(|(s, &k)| if k > 0 { 100.0 * s / k as f64 } else { f64::NAN })
+                .collect();
+            let title = format!("{}. {label}: {caption}", i + 1);
+            let name = format!("cells-{}-{}", i + 1, what.replace('_', "-"));
+            GridHeatmap::new(title.clone(), &world, values, format!("{caption} (%)"))
+                .write(&out.join(&name))?;
+            files.push((title, format!("{name}.png")));
+        }
+    }
+    Ok(files)
+}
+
+/// At most this many series per figure; beyond, the other axes are averaged out.
+const MAX_SERIES: usize = 10;
+
+/// A figure per swept axis whose values are numbers (delays by their mean): the
+/// headline metric against the axis, one series per combination of the other axes.
+fn figures(plan: &Plan, stats: &[CellStats], out: &Path) -> Result<Vec<(String, String)>, ReportError> {
+    let Some(&(metric, label, pct)) =
+        HEADLINE.iter().find(|h| stats.iter().any(|s| s.metrics.contains_key(h.0)))
+    else {
+        return Ok(Vec::new());
+    };
+    let scale = if pct { 100.0 } else { 1.0 };
+    let mut files = Vec::new();
+    for axis in &plan.axes {
+        let values = plan.axis_values(axis);
+        if axis == "delay" && mixed_units(&values) {
+            continue;
+        }
+        let xs: Option<Vec<f64>> = values.iter().map(|v| axis_number(axis, v)).collect();
+        let Some(xs) = xs else { continue };
+        let mut distinct = xs.clone();
+        distinct.sort_by(f64::total_cmp);
+        distinct.dedup();
+        if distinct.len() < 2 || distinct.len() != xs.len() {
+            continue;
+        }
+        let others: Vec<&String> = plan.axes.iter().filter(|a| *a != axis).collect();
+        // Group cells by the values of the other axes.
+        let mut groups: Vec<(String, Vec<(f64, &CellStats)>)> = Vec::new();
+        for s in stats {
+            let Some(m) = s.metrics.get(metric) else { continue };
+            if !m.mean.is_finite() {
+                continue;
+            }
+            let key: Vec<String> = others.iter().map(|a| format!("{a}={}", plan.param(s.cell, a))).collect();
+            let key = key.join(", ");
+            let x = axis_number(axis, plan.param(s.cell, axis)).unwrap_or(f64::NAN);
+            match groups.iter_mut().find(|g| g.0 == key) {
+                Some(g) => g.1.push((x, s)),
+                None => groups.push((key, vec![(x, s)])),
+            }
+        }
+        if groups.is_empty() {
+            continue;
+        }
+        let x_label = match axis.as_str() {
+            "delay" => "mean delay λ (steps)".to_string(),
+            "max_delay" => "λ̂max (steps)".to_string(),
+            "lambda_hat" => "λ̂ (steps)".to_string(),
+            "steps" | "window" | "eval_steps" => format!("{axis} (steps)"),
+            other => other.to_string(),
+        };
+        let y_label = if pct { format!("{label} (%)") } else { label.to_string() };
+        let mut chart = LineChart::new(format!("{}: {label} vs {axis}", plan.name), x_label, y_label);
+        if groups.len() <= MAX_SERIES {
+            for (key, mut pts) in groups {
+                pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let x: Vec<f64> = pts.iter().map(|p| p.0).collect();
+                let m: Vec<_> = pts.iter().map(|p| p.1.metrics[metric]).collect();
+                let y = m.iter().map(|m| scale * m.mean).collect();
+                let lo = m.iter().map(|m| scale * (m.mean - m.ci95)).collect();
+                let hi = m.iter().map(|m| scale * (m.mean + m.ci95)).collect();
+                let name = if key.is_empty() { plan.name.clone() } else { key };
+                chart.series.push(Series::new(name, x, y).with_band(lo, hi).with_markers());
+            }
+        } else {
+            let y: Vec<f64> = distinct
+                .iter()
+                .map(|&x| {
+                    let ms: Vec<f64> = groups
+                        .iter()
+                        .flat_map(|g| g.1.iter())
+                        .filter(|p| p.0 == x)
+                        .map(|p| p.1.metrics[metric].mean)
+                        .collect();
+                    scale * ms.iter().sum::<f64>() / ms.len().max(1) as f64
+                })
+                .collect();
+            let name = format!("mean over the other axes ({} combinations)", groups.len());
+            chart.series.push(Series::new(name, distinct.clone(), y).with_markers());
+        }
+        if metric == "perf/relative" {
+            chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
+        }
+        let base = out.join(format!("by-{axis}"));
+        chart.write(&base)?;
+        files.push((axis.clone(), format!("by-{axis}.png")));
+    }
+    Ok(files)
+}
+
+/// Whether delays in steps and delays in seconds are mixed (no common axis).
+fn mixed_units(values: &[String]) -> bool {
+    let units: Vec<_> =
+        values.iter().filter_map(|v| mmq_core::DelayDist::parse(v).ok()).map(|d| d.unit()).collect();
+    units.windows(2).any(|w| w[0] != w[1])
+}
