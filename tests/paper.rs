@@ -1,5 +1,6 @@
 //! `mmq paper --quick --fig all` end to end: every file the report names exists, and the
-//! report's numbers are the CSVs' numbers.
+//! report's numbers are the CSVs' numbers; Fig. 6 from `mmq paper` and from `mmq sweep`
+//! on its shipped spec agree.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -99,4 +100,87 @@ fn quick_paper_report_is_complete_and_consistent() {
     // Every figure says where it differs from the paper, and the horizon is shown.
     assert!(report.matches("**Where we differ from the paper:**").count() >= 6, "{report}");
     assert!(linked.contains(&"horizon.png".to_string()) && linked.contains(&"fig6-delay.png".to_string()));
+}
+
+/// Fig. 6 both ways: `mmq paper --fig 6` and `mmq sweep` on the figure's shipped spec
+/// (`worlds/sweeps/paper-fig6.toml`, with only the budget lines changed) run the same
+/// jobs, so the paper's learning curves equal the means of the sweep's per-job curves
+/// at every point, for both learners.
+#[test]
+fn fig6_from_the_paper_and_from_its_sweep_spec_agree() {
+    let (steps, seeds, window) = (1200u64, 3u64, 20u64);
+    let d = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_mmq"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{args:?}: {}", String::from_utf8_lossy(&o.stderr));
+    };
+    let paper = d.path().join("paper");
+    let p = paper.to_string_lossy().into_owned();
+    run(&[
+        "paper",
+        "--fig",
+        "6",
+        "--steps",
+        &steps.to_string(),
+        "--seeds",
+        &seeds.to_string(),
+        "-q",
+        "--out",
+        &p,
+    ]);
+
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let shipped = std::fs::read_to_string(root.join("worlds/sweeps/paper-fig6.toml")).unwrap();
+    let mut changed = 0;
+    let text: String = shipped
+        .lines()
+        .map(|l| {
+            let new = match l.split(" = ").next() {
+                Some("steps") => format!("steps = {steps}"),
+                Some("seeds") => format!("seeds = {seeds}"),
+                Some("window") => format!("window = {window}"),
+                _ => return l.to_string(),
+            };
+            changed += 1;
+            new
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    assert_eq!(changed, 3, "the spec lost a line this test changes");
+    let spec = d.path().join("fig6.toml");
+    std::fs::write(&spec, text).unwrap();
+    let sweep = d.path().join("sweep");
+    run(&["sweep", &spec.to_string_lossy(), "-q", "--out", &sweep.to_string_lossy()]);
+
+    // The paper: per learner and curve point, the mean over seeds of the reward earned
+    // per step in that window.
+    let paper_rows = csv(&paper.join("fig6-rewards.csv"));
+    // The sweep: per job, `curve/<step>` is the same quantity.
+    let jobs = csv(&sweep.join("results.csv"));
+    let mut compared = 0;
+    for (series, learner) in [("MMQ_earned", "mmq"), ("Q_earned", "q")] {
+        let rows: Vec<_> = paper_rows.iter().filter(|r| r["series"] == series).collect();
+        assert_eq!(rows.len() as u64, steps / window, "{series}: one point per window");
+        for r in rows {
+            let of_jobs: Vec<f64> = jobs
+                .iter()
+                .filter(|j| j["learner"] == learner)
+                .map(|j| j[&format!("curve/{}", r["step"])].parse().unwrap())
+                .collect();
+            assert_eq!(of_jobs.len() as u64, seeds);
+            let mean = of_jobs.iter().sum::<f64>() / seeds as f64;
+            let from_paper: f64 = r["mean"].parse().unwrap();
+            assert!(
+                (mean - from_paper).abs() < 1e-12,
+                "{series} at step {}: paper {from_paper}, sweep {mean}",
+                r["step"]
+            );
+            compared += 1;
+        }
+    }
+    assert_eq!(compared, 2 * steps / window);
 }
