@@ -9,6 +9,7 @@
 pub mod beyond;
 pub mod config;
 pub mod error;
+pub mod exec;
 pub mod format;
 pub mod output;
 pub mod paper;

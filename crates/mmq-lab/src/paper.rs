@@ -1,6 +1,7 @@
 //! The paper's experiments (Sections IV, V and VII), as data: every figure's numbers
 //! with means and 95 % intervals over seeds, and the CSV behind each. Drawing and the
-//! report live in the CLI (`mmq paper`), which owns the plotting crate.
+//! report live in mmq-report. The same settings ship as sweep specs
+//! (`worlds/sweeps/paper-*.toml`, tested equal).
 //!
 //! Parameters the paper leaves open, and our choices (docs/reproduction.md):
 //! ε and q0 (Figs. 2–4: ε = 0.05, q0 = 10; Fig. 6: ε = 0.01, q0 = 20, with a sensitivity
@@ -8,16 +9,17 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
-use crate::runner::{Control, SeedResult, Trajectory, memory_limit, run_seed};
+use crate::exec::{Job, run_jobs};
+use crate::runner::{Control, SeedResult, memory_limit, run_seed};
 
 /// Options of `mmq paper`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -150,73 +152,34 @@ fn curve(results: &[SeedResult], f: impl Fn(&SeedResult, usize) -> Option<f64>) 
         .collect()
 }
 
-/// Runs many settings at once: every (setting, seed) pair and every needed baseline is
-/// one job in one parallel pool; results come back in setting and seed order.
+/// Runs many settings at once through the executor ([`crate::exec`]): every (setting,
+/// seed) pair is one job in one parallel pool, each with the undelayed baseline of its
+/// world, parameters, horizon and seed (computed once per distinct baseline); results
+/// come back in setting and seed order. A seed the stop flag kept from starting is left
+/// out of its group.
 pub fn run_groups(cfgs: Vec<RunConfig>, ctl: Control<'_>) -> Result<Vec<Group>, LabError> {
-    // Baselines: undelayed Q-learning per (world, env, params, steps, window, seed).
-    let base_key = |c: &RunConfig, seed: u64| {
-        let p = c.learner.params;
-        format!(
-            "{}|{}|{}|{}|{}|{}|{}|{}|{seed}",
-            c.world.display(),
-            c.env.name(),
-            p.alpha,
-            p.gamma,
-            p.epsilon,
-            p.q0,
-            c.steps,
-            c.window
-        )
-    };
-    let mut jobs: Vec<(RunConfig, u64)> = Vec::new();
-    let mut keys: Vec<String> = Vec::new();
-    for c in &cfgs {
+    let worlds: Vec<World> = cfgs.iter().map(RunConfig::load_world).collect::<Result<_, _>>()?;
+    let dists: Vec<DelayDist> = cfgs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
+    // The paper relates every setting to its baseline.
+    let with_base: Vec<RunConfig> = cfgs.iter().map(|c| RunConfig { baseline: true, ..c.clone() }).collect();
+    let mut jobs = Vec::new();
+    let mut owner = Vec::new();
+    for (g, c) in with_base.iter().enumerate() {
         for seed in c.seed_list() {
-            let k = base_key(c, seed);
-            if !keys.contains(&k) {
-                keys.push(k);
-                let b = RunConfig {
-                    learner: c.baseline_learner(),
-                    delay: "none".into(),
-                    baseline: false,
-                    ..c.clone()
-                };
-                jobs.push((b, seed));
-            }
+            jobs.push(Job { cfg: c, world: &worlds[g], dist: &dists[g], seed });
+            owner.push(g);
         }
     }
-    let n_base = jobs.len();
-    for c in &cfgs {
-        for seed in c.seed_list() {
-            jobs.push((RunConfig { baseline: false, ..c.clone() }, seed));
+    let slots: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..jobs.len()).map(|_| None).collect());
+    run_jobs(&jobs, ctl, &|i, r| {
+        slots.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(r);
+        Ok(())
+    })?;
+    let mut groups: Vec<Group> = cfgs.into_iter().map(|cfg| Group { cfg, results: Vec::new() }).collect();
+    for (g, r) in owner.into_iter().zip(slots.into_inner().unwrap_or_else(|p| p.into_inner())) {
+        if let Some(r) = r {
+            groups[g].results.push(r);
         }
-    }
-    let worlds: Vec<World> = jobs.iter().map(|(c, _)| c.load_world()).collect::<Result<_, _>>()?;
-    let dists: Vec<DelayDist> = jobs.iter().map(|(c, _)| c.validate()).collect::<Result<_, _>>()?;
-    let limit = memory_limit(rayon::current_num_threads());
-    let done: Vec<Result<SeedResult, LabError>> = jobs
-        .par_iter()
-        .zip(worlds.par_iter().zip(dists.par_iter()))
-        .map(|((c, seed), (w, d))| run_seed(c, w, d, *seed, None, ctl, limit))
-        .collect();
-    let mut done = done.into_iter().collect::<Result<Vec<_>, _>>()?;
-    let runs = done.split_off(n_base);
-    let baselines: Vec<(String, Trajectory, f64)> =
-        keys.into_iter().zip(done).map(|(k, r)| (k, r.run, r.greedy_per_step)).collect();
-    let mut it = runs.into_iter();
-    let mut groups = Vec::new();
-    for c in cfgs {
-        let mut results = Vec::new();
-        for seed in c.seed_list() {
-            let mut r = it.next().expect("one result per job");
-            let k = base_key(&c, seed);
-            if let Some((_, b, g)) = baselines.iter().find(|x| x.0 == k) {
-                r.baseline = Some(b.clone());
-                r.baseline_greedy_per_step = Some(*g);
-            }
-            results.push(r);
-        }
-        groups.push(Group { cfg: c, results });
     }
     Ok(groups)
 }

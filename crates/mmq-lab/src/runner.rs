@@ -2,6 +2,7 @@
 //! metrics, the greedy evaluation and the undelayed baseline; and many seeds in
 //! parallel, in seed order, so results never depend on the thread count.
 
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -13,11 +14,11 @@ use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
 use mmq_learn::{Experience, Learner, LearnerSpec, Table, Truth};
 use mmq_robot::{RobotConfig, RobotEnv};
-use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
+use crate::exec::{Job, run_jobs_observed};
 
 /// How a run is steered from outside: a stop flag (Ctrl-C) and a progress callback.
 #[derive(Clone, Copy)]
@@ -192,7 +193,8 @@ pub fn check_tables_fit(cfg: &RunConfig, world: &World, limit: u128) -> Result<u
     Ok(bytes)
 }
 
-/// Runs one seed: learning under delay, greedy evaluation, then the baseline.
+/// Runs one seed: learning under delay, greedy evaluation, then the baseline (when the
+/// configuration asks for one).
 pub fn run_seed(
     cfg: &RunConfig,
     world: &World,
@@ -202,15 +204,33 @@ pub fn run_seed(
     ctl: Control<'_>,
     mem_limit: u128,
 ) -> Result<SeedResult, LabError> {
+    run_seed_as(cfg, world, dist, seed, observer, ctl, mem_limit, cfg.baseline)
+}
+
+/// [`run_seed`] that runs the baseline only if `own_baseline` (the executor shares
+/// baselines between jobs and attaches them itself); the configuration is recorded as
+/// given either way.
+pub(crate) fn run_seed_as(
+    cfg: &RunConfig,
+    world: &World,
+    dist: &DelayDist,
+    seed: u64,
+    observer: Option<Box<dyn Observer + Send>>,
+    ctl: Control<'_>,
+    mem_limit: u128,
+    own_baseline: bool,
+) -> Result<SeedResult, LabError> {
     match cfg.env {
-        EnvKind::Grid => {
-            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, || Ok(GridEnv::new(world)))
+        EnvKind::Grid => run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, || {
+            Ok(GridEnv::new(world))
+        }),
+        EnvKind::Robot => {
+            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, || robot_env(world))
         }
-        EnvKind::Robot => run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, || robot_env(world)),
     }
 }
 
-/// [`run_seed`] on environments made by `make`.
+/// [`run_seed_as`] on environments made by `make`.
 pub fn run_seed_on<E: Env>(
     cfg: &RunConfig,
     world: &World,
@@ -219,6 +239,7 @@ pub fn run_seed_on<E: Env>(
     mut observer: Option<Box<dyn Observer + Send>>,
     ctl: Control<'_>,
     mem_limit: u128,
+    own_baseline: bool,
     make: impl Fn() -> Result<E, LabError>,
 ) -> Result<SeedResult, LabError> {
     let clock = Instant::now();
@@ -256,7 +277,7 @@ pub fn run_seed_on<E: Env>(
     }
     let complete = complete && failure.is_none();
     let (mut baseline, mut baseline_greedy) = (None, None);
-    if cfg.baseline && complete {
+    if own_baseline && complete {
         let spec = cfg.baseline_learner();
         let env = make()?;
         let mut base = spec.build(env.num_states(), env.num_actions(), mem_limit)?;
@@ -266,7 +287,7 @@ pub fn run_seed_on<E: Env>(
             baseline = Some(traj);
         }
     }
-    let complete = complete && (!cfg.baseline || baseline.is_some());
+    let complete = complete && (!own_baseline || baseline.is_some());
     Ok(SeedResult {
         seed,
         complete,
@@ -581,22 +602,14 @@ pub fn run_all(
             ));
         }
     }
-    let results: Vec<Result<Option<SeedResult>, LabError>> = seeds
-        .par_iter()
-        .map(|&seed| {
-            if ctl.stop.load(Ordering::Relaxed) {
-                return Ok(None);
-            }
-            let obs = observers(seed)?;
-            run_seed(cfg, world, &dist, seed, obs, ctl, limit).map(Some)
-        })
-        .collect();
-    let mut out = Vec::new();
-    for r in results {
-        if let Some(r) = r? {
-            out.push(r);
-        }
-    }
+    let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed }).collect();
+    let slots: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..jobs.len()).map(|_| None).collect());
+    run_jobs_observed(&jobs, Some(observers), ctl, &|i, r| {
+        slots.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(r);
+        Ok(())
+    })?;
+    let out: Vec<SeedResult> =
+        slots.into_inner().unwrap_or_else(|p| p.into_inner()).into_iter().flatten().collect();
     let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
     Ok(RunOutcome { results: out, interrupted })
 }

@@ -2,10 +2,8 @@
 //! finishes, with the undelayed baselines computed once and shared by the jobs that
 //! need them.
 
-use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use mmq_core::DelayDist;
 use rayon::prelude::*;
@@ -15,8 +13,9 @@ use super::spec::SweepSpec;
 use super::store::{finish_dir, read_job, write_job};
 use crate::config::RunConfig;
 use crate::error::LabError;
+use crate::exec::{Job, baselines_needed, run_jobs};
 use crate::output::write_atomic;
-use crate::runner::{Control, SeedResult, Trajectory, check_tables_fit, memory_limit, run_seed};
+use crate::runner::{Control, Trajectory};
 use crate::summary::seed_metrics;
 
 /// What a sweep reports while it runs (the CLI prints it).
@@ -74,48 +73,6 @@ pub struct SweepOutcome {
     pub rows: usize,
 }
 
-/// Key of an undelayed baseline: everything it depends on.
-fn baseline_key(spec: &SweepSpec, c: usize, seed: u64) -> String {
-    let cfg = spec.config(c);
-    let p = cfg.learner.params;
-    format!(
-        "{}|{}|{}|{}|{}|{}|{}|{}|{}|{seed}",
-        spec.world_of[c],
-        cfg.env.name(),
-        p.alpha,
-        p.gamma,
-        p.epsilon,
-        p.q0,
-        cfg.steps,
-        cfg.window,
-        cfg.eval_steps
-    )
-}
-
-/// An undelayed baseline shared by the jobs that need it.
-struct SharedBaseline {
-    /// Jobs still to use it.
-    users: AtomicUsize,
-    /// Its state.
-    slot: Mutex<Slot>,
-}
-
-/// The state of a shared baseline.
-enum Slot {
-    /// Not computed yet.
-    Pending,
-    /// The trajectory and its greedy evaluation.
-    Ready(Arc<(Trajectory, f64)>),
-    /// Unavailable: interrupted, failed, or no longer needed.
-    Gone,
-}
-
-/// The undelayed Q-learning run of cell `c`'s baseline: what [`run_seed`] runs as its
-/// baseline, as a run of its own.
-fn baseline_config(cfg: &RunConfig) -> RunConfig {
-    RunConfig { learner: cfg.baseline_learner(), delay: "none".into(), baseline: false, ..cfg.clone() }
-}
-
 /// The learning curve in `points` equal parts of `steps` (none for 0): reward earned
 /// per step in each part, as `curve/<last step of the part>`. The spec checks that the
 /// parts end on rows of the curve; a part without its row (an interrupted run) is left
@@ -157,116 +114,39 @@ pub fn run_sweep(
     let pending: Vec<usize> = here.iter().zip(&have).filter(|x| !*x.1).map(|x| *x.0).collect();
     let skipped = here.len() - pending.len();
 
-    // Refuse tables that cannot fit before running anything.
-    let parallel = rayon::current_num_threads().min(pending.len()).max(1);
-    let limit = memory_limit(parallel);
-    let mut checked = BTreeSet::new();
-    for &j in &pending {
-        let c = plan.job(j).0;
-        if checked.insert(c) {
-            check_tables_fit(spec.config(c), spec.world(c), limit)?;
-        }
-    }
-
-    // Distinct baselines of the pending jobs, each with the number of jobs that use it.
-    let mut shared: HashMap<String, SharedBaseline> = HashMap::new();
-    let mut base_steps = 0;
-    for &j in &pending {
-        let (c, seed) = plan.job(j);
-        if spec.config(c).baseline {
-            let e = shared.entry(baseline_key(spec, c, seed)).or_insert_with(|| {
-                base_steps += spec.config(c).steps;
-                SharedBaseline { users: AtomicUsize::new(0), slot: Mutex::new(Slot::Pending) }
-            });
-            e.users.fetch_add(1, Ordering::Relaxed);
-        }
-    }
-    let steps: u64 = pending.iter().map(|&j| spec.config(plan.job(j).0).steps).sum::<u64>() + base_steps;
+    let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
+    let jobs: Vec<Job<'_>> = pending
+        .iter()
+        .map(|&j| {
+            let (c, seed) = plan.job(j);
+            Job { cfg: spec.config(c), world: spec.world(c), dist: &dists[c], seed }
+        })
+        .collect();
+    let baselines = baselines_needed(&jobs);
+    let steps: u64 =
+        jobs.iter().map(|j| j.cfg.steps).sum::<u64>() + baselines.iter().map(|(_, steps)| steps).sum::<u64>();
     events(&SweepEvent::Planned {
         jobs_total: plan.jobs(),
         jobs_here: here.len(),
         done: skipped,
-        baselines: shared.len(),
+        baselines: baselines.len(),
         steps,
     });
 
-    let failed = AtomicBool::new(false);
-    let first_error = Mutex::new(None::<LabError>);
-    let fail = |e: LabError| {
-        failed.store(true, Ordering::SeqCst);
-        let mut g = first_error.lock().unwrap_or_else(|p| p.into_inner());
-        if g.is_none() {
-            *g = Some(e);
-        }
-    };
-    let halted = || ctl.stop.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
-    let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
     let optimum: Vec<f64> = spec.worlds.iter().map(|w| mmq_core::optimum(w).gain).collect();
     let ceilings: Vec<Option<f64>> = (0..spec.configs.len())
         .map(|c| crate::summary::ceiling_per_step(spec.config(c), spec.world(c)))
         .collect();
-
-    // The baseline of job (c, seed): computed by the first job that asks, awaited by
-    // the others that ask meanwhile, dropped after its last user.
-    let baseline_of = |c: usize, seed: u64| -> Option<Arc<(Trajectory, f64)>> {
-        let s = &shared[&baseline_key(spec, c, seed)];
-        let mut slot = s.slot.lock().unwrap_or_else(|p| p.into_inner());
-        if matches!(*slot, Slot::Pending) {
-            let cfg = baseline_config(spec.config(c));
-            *slot = match run_seed(&cfg, spec.world(c), &DelayDist::None, seed, None, ctl, limit) {
-                Ok(r) if r.complete => Slot::Ready(Arc::new((r.run, r.greedy_per_step))),
-                Ok(_) => Slot::Gone,
-                Err(e) => {
-                    fail(e);
-                    Slot::Gone
-                }
-            };
-        }
-        let b = match &*slot {
-            Slot::Ready(b) => Some(b.clone()),
-            _ => None,
-        };
-        if s.users.fetch_sub(1, Ordering::AcqRel) == 1 {
-            *slot = Slot::Gone;
-        }
-        b
-    };
-
     let finished = AtomicUsize::new(0);
-    pending.par_iter().for_each(|&j| {
-        if halted() {
-            return;
-        }
-        let (c, seed) = plan.job(j);
-        let cfg = spec.config(c);
-        let base = if cfg.baseline {
-            match baseline_of(c, seed) {
-                Some(b) => Some(b),
-                None => return, // interrupted or failed
-            }
-        } else {
-            None
-        };
-        if halted() {
-            return;
-        }
-        let run_cfg = RunConfig { baseline: false, ..cfg.clone() };
-        let mut r: SeedResult = match run_seed(&run_cfg, spec.world(c), &dists[c], seed, None, ctl, limit) {
-            Ok(r) => r,
-            Err(e) => return fail(e),
-        };
+    let ran = run_jobs(&jobs, ctl, &|i, r| {
         if !r.complete {
-            return;
+            return Ok(());
         }
-        if let Some(b) = base {
-            r.baseline = Some(b.0.clone());
-            r.baseline_greedy_per_step = Some(b.1);
-        }
+        let j = pending[i];
+        let (c, seed) = plan.job(j);
         let mut metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
-        metrics.extend(curve_points(&r.run, cfg.steps, spec.curve));
-        if let Err(e) = write_job(out, plan, j, &metrics) {
-            return fail(e);
-        }
+        metrics.extend(curve_points(&r.run, spec.config(c).steps, spec.curve));
+        write_job(out, plan, j, &metrics)?;
         let n = finished.fetch_add(1, Ordering::SeqCst) + 1;
         events(&SweepEvent::JobDone {
             cell: &plan.cells[c].id,
@@ -276,12 +156,11 @@ pub fn run_sweep(
             of: pending.len(),
             wall_s: r.wall_time_s,
         });
+        Ok(())
     });
 
     let (results_csv, rows, jobs_here, done) = finish_dir(out, plan, &spec_file, shard)?;
-    if let Some(e) = first_error.into_inner().unwrap_or_else(|p| p.into_inner()) {
-        return Err(e);
-    }
+    ran?;
     Ok(SweepOutcome {
         jobs_total: plan.jobs(),
         jobs_here,
@@ -295,7 +174,11 @@ pub fn run_sweep(
 
 #[cfg(test)]
 mod tests {
+    use std::sync::atomic::AtomicBool;
+
     use super::*;
+    use crate::exec::baseline_config;
+    use crate::runner::run_seed;
     use crate::sweep::merge::same_results;
 
     fn spec(text: &str) -> Result<SweepSpec, LabError> {

@@ -1,0 +1,295 @@
+//! One executor for every study: jobs (a resolved run configuration × a master seed) in,
+//! results out. It refuses tables that cannot fit before running anything, runs the jobs
+//! on rayon's threads, stops on the stop flag or at the first error, and computes each
+//! undelayed baseline once: the first job that needs it runs it, jobs that need it
+//! meanwhile wait for it, and it is dropped after its last user. `mmq run`, `mmq paper`
+//! and `mmq sweep` run through it; the results do not depend on the order jobs run in.
+
+use std::collections::{HashMap, HashSet};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+
+use mmq_core::{DelayDist, World};
+use rayon::prelude::*;
+
+use crate::config::{EnvKind, RunConfig};
+use crate::error::LabError;
+use crate::runner::{
+    Control, ObserverFactory, SeedResult, Trajectory, check_tables_fit, memory_limit, run_seed, run_seed_as,
+};
+
+/// One run to make: a configuration, its world and delay, and a master seed.
+#[derive(Debug, Clone, Copy)]
+pub struct Job<'a> {
+    /// The run's configuration; with `baseline` set the job also gets the undelayed
+    /// Q-learning baseline of the same world, parameters, horizon and seed.
+    pub cfg: &'a RunConfig,
+    /// Its world (robot overrides applied).
+    pub world: &'a World,
+    /// Its validated delay.
+    pub dist: &'a DelayDist,
+    /// The master seed.
+    pub seed: u64,
+}
+
+/// Everything an undelayed baseline depends on: jobs with equal keys share one.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct BaselineKey {
+    world: PathBuf,
+    env: EnvKind,
+    robot: Vec<String>,
+    /// α, γ, ε, q0 as bits.
+    params: [u64; 4],
+    steps: u64,
+    window: u64,
+    eval_steps: u64,
+    seed: u64,
+}
+
+impl BaselineKey {
+    /// The key of the baseline of `cfg` with master seed `seed`.
+    pub fn of(cfg: &RunConfig, seed: u64) -> Self {
+        let p = cfg.learner.params;
+        BaselineKey {
+            world: cfg.world.clone(),
+            env: cfg.env,
+            robot: cfg.robot.clone(),
+            params: [p.alpha.to_bits(), p.gamma.to_bits(), p.epsilon.to_bits(), p.q0.to_bits()],
+            steps: cfg.steps,
+            window: cfg.window,
+            eval_steps: cfg.eval_steps,
+            seed,
+        }
+    }
+}
+
+/// The undelayed Q-learning run that is `cfg`'s baseline, as a run of its own.
+pub fn baseline_config(cfg: &RunConfig) -> RunConfig {
+    RunConfig { learner: cfg.baseline_learner(), delay: "none".into(), baseline: false, ..cfg.clone() }
+}
+
+/// The distinct baselines the jobs need (each job whose configuration asks for one).
+pub fn baselines_needed(jobs: &[Job<'_>]) -> Vec<(BaselineKey, u64)> {
+    let mut seen = HashSet::new();
+    jobs.iter()
+        .filter(|j| j.cfg.baseline && seen.insert(BaselineKey::of(j.cfg, j.seed)))
+        .map(|j| (BaselineKey::of(j.cfg, j.seed), j.cfg.steps))
+        .collect()
+}
+
+/// An undelayed baseline shared by the jobs that need it.
+struct Shared {
+    /// Jobs still to use it.
+    users: AtomicUsize,
+    slot: Mutex<Slot>,
+}
+
+/// The state of a shared baseline.
+enum Slot {
+    /// Not computed yet.
+    Pending,
+    /// The trajectory and its greedy evaluation.
+    Ready(Arc<(Trajectory, f64)>),
+    /// Unavailable: interrupted, failed, or no longer needed.
+    Gone,
+}
+
+/// Runs `jobs` in parallel and hands each run to `done` with its index, its baseline
+/// attached where the configuration asks for one. As one seed of `mmq run` does: the run
+/// first, then (if it finished) its baseline; a run cut short by the stop flag, or whose
+/// baseline was, is handed over with `complete` false; a job that has not started when
+/// the stop flag is set is not run. The first error (of a run or of `done`) stops the
+/// jobs not yet started and is returned.
+pub fn run_jobs(
+    jobs: &[Job<'_>],
+    ctl: Control<'_>,
+    done: &(dyn Fn(usize, SeedResult) -> Result<(), LabError> + Sync),
+) -> Result<(), LabError> {
+    run_jobs_observed(jobs, None, ctl, done)
+}
+
+/// [`run_jobs`] with an observer per master seed for the learning runs (recorders, the
+/// live view; baselines are never observed).
+pub fn run_jobs_observed(
+    jobs: &[Job<'_>],
+    observers: Option<&ObserverFactory<'_>>,
+    ctl: Control<'_>,
+    done: &(dyn Fn(usize, SeedResult) -> Result<(), LabError> + Sync),
+) -> Result<(), LabError> {
+    let parallel = rayon::current_num_threads().min(jobs.len()).max(1);
+    let limit = memory_limit(parallel);
+    // Refuse tables that cannot fit before running anything (once per configuration).
+    let mut checked = HashSet::new();
+    for j in jobs {
+        if checked.insert(std::ptr::from_ref(j.cfg)) {
+            check_tables_fit(j.cfg, j.world, limit)?;
+        }
+    }
+    let mut shared: HashMap<BaselineKey, Shared> = HashMap::new();
+    for j in jobs.iter().filter(|j| j.cfg.baseline) {
+        let s = shared
+            .entry(BaselineKey::of(j.cfg, j.seed))
+            .or_insert_with(|| Shared { users: AtomicUsize::new(0), slot: Mutex::new(Slot::Pending) });
+        s.users.fetch_add(1, Ordering::Relaxed);
+    }
+
+    let failed = AtomicBool::new(false);
+    let first_error = Mutex::new(None::<LabError>);
+    let fail = |e: LabError| {
+        failed.store(true, Ordering::SeqCst);
+        let mut g = first_error.lock().unwrap_or_else(|p| p.into_inner());
+        if g.is_none() {
+            *g = Some(e);
+        }
+    };
+    let halted = || ctl.stop.load(Ordering::Relaxed) || failed.load(Ordering::Relaxed);
+
+    // The baseline of a job: computed by the first job that asks, awaited by the others
+    // that ask meanwhile, dropped after its last user (a job that does not want it any
+    // more, its own run cut short, only lets go of it).
+    let baseline_of = |j: &Job<'_>, want: bool| -> Option<Arc<(Trajectory, f64)>> {
+        let s = &shared[&BaselineKey::of(j.cfg, j.seed)];
+        let mut slot = s.slot.lock().unwrap_or_else(|p| p.into_inner());
+        if want && matches!(*slot, Slot::Pending) {
+            let cfg = baseline_config(j.cfg);
+            *slot = match run_seed(&cfg, j.world, &DelayDist::None, j.seed, None, ctl, limit) {
+                Ok(r) if r.complete => Slot::Ready(Arc::new((r.run, r.greedy_per_step))),
+                Ok(_) => Slot::Gone,
+                Err(e) => {
+                    fail(e);
+                    Slot::Gone
+                }
+            };
+        }
+        let b = match &*slot {
+            Slot::Ready(b) if want => Some(b.clone()),
+            _ => None,
+        };
+        if s.users.fetch_sub(1, Ordering::AcqRel) == 1 {
+            *slot = Slot::Gone;
+        }
+        b
+    };
+
+    jobs.par_iter().enumerate().for_each(|(i, j)| {
+        if halted() {
+            return;
+        }
+        let observer = match observers.map(|f| f(j.seed)).transpose() {
+            Ok(o) => o.flatten(),
+            Err(e) => return fail(e),
+        };
+        let mut r = match run_seed_as(j.cfg, j.world, j.dist, j.seed, observer, ctl, limit, false) {
+            Ok(r) => r,
+            Err(e) => {
+                if j.cfg.baseline {
+                    baseline_of(j, false);
+                }
+                return fail(e);
+            }
+        };
+        if j.cfg.baseline {
+            match baseline_of(j, r.complete) {
+                Some(b) => {
+                    r.baseline = Some(b.0.clone());
+                    r.baseline_greedy_per_step = Some(b.1);
+                }
+                None => r.complete = false,
+            }
+        }
+        if let Err(e) = done(i, r) {
+            fail(e);
+        }
+    });
+    match first_error.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        Some(e) => Err(e),
+        None => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg() -> RunConfig {
+        RunConfig { world: "paper-3x3".into(), steps: 300, window: 100, ..RunConfig::default() }
+    }
+
+    #[test]
+    fn the_baseline_key_holds_what_the_baseline_depends_on_and_nothing_else() {
+        let a = cfg();
+        let key = |c: &RunConfig| BaselineKey::of(c, 3);
+        // Shared across what the undelayed Q-learning baseline ignores.
+        let mut b = a.clone();
+        b.learner.kind = mmq_learn::LearnerKind::Mmq;
+        b.learner.max_delay = 7;
+        b.delay = "poisson:5".into();
+        assert_eq!(key(&a), key(&b));
+        // Not shared across anything it depends on.
+        let changed: [fn(&mut RunConfig); 8] = [
+            |c| c.learner.params.epsilon = 0.2,
+            |c| c.learner.params.q0 = 1.0,
+            |c| c.steps = 600,
+            |c| c.window = 50,
+            |c| c.eval_steps = 10,
+            |c| c.env = EnvKind::Robot,
+            |c| c.robot = vec!["profile=realistic".into()],
+            |c| c.world = "paper-5x5".into(),
+        ];
+        for f in changed {
+            let mut c = a.clone();
+            f(&mut c);
+            assert_ne!(key(&a), key(&c), "{c:?}");
+        }
+        assert_ne!(BaselineKey::of(&a, 3), BaselineKey::of(&a, 4));
+    }
+
+    #[test]
+    fn jobs_get_the_baseline_run_seed_computes_and_share_it() {
+        let c = cfg();
+        let world = c.load_world().unwrap();
+        let dist = c.validate().unwrap();
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        let mut other = c.clone();
+        other.learner.kind = mmq_learn::LearnerKind::Mmq;
+        let jobs = [
+            Job { cfg: &c, world: &world, dist: &dist, seed: 5 },
+            Job { cfg: &other, world: &world, dist: &dist, seed: 5 },
+        ];
+        assert_eq!(baselines_needed(&jobs).len(), 1);
+        let got: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..2).map(|_| None).collect());
+        run_jobs(&jobs, ctl, &|i, r| {
+            got.lock().unwrap()[i] = Some(r);
+            Ok(())
+        })
+        .unwrap();
+        let got = got.into_inner().unwrap();
+        // run_seed with the baseline flag runs the same baseline itself.
+        let own = run_seed(&c, &world, &dist, 5, None, ctl, 1 << 30).unwrap();
+        let own_base = own.baseline.as_ref().unwrap();
+        for r in got.iter().map(|r| r.as_ref().unwrap()) {
+            let b = r.baseline.as_ref().unwrap();
+            assert_eq!(b.earned_total.to_bits(), own_base.earned_total.to_bits());
+            assert_eq!(b.curve.len(), own_base.curve.len());
+            assert_eq!(
+                r.baseline_greedy_per_step.map(f64::to_bits),
+                own.baseline_greedy_per_step.map(f64::to_bits)
+            );
+        }
+        assert_eq!(got[0].as_ref().unwrap().run.earned_total.to_bits(), own.run.earned_total.to_bits());
+    }
+
+    #[test]
+    fn an_error_of_done_is_returned() {
+        let c = RunConfig { baseline: false, ..cfg() };
+        let world = c.load_world().unwrap();
+        let dist = c.validate().unwrap();
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        let jobs = [Job { cfg: &c, world: &world, dist: &dist, seed: 0 }];
+        let e = run_jobs(&jobs, ctl, &|_, _| Err(LabError::EnvBuild("cannot keep it".into())));
+        assert!(e.unwrap_err().to_string().contains("cannot keep it"));
+    }
+}
