@@ -85,7 +85,9 @@ fn main() -> ExitCode {
         Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("error: {}", one_line(&f.error));
+            let text = one_line(&f.error);
+            let text = if names_fields(&f.error) { mmq_lab::fields::as_flags(&text) } else { text };
+            eprintln!("error: {text}");
             ExitCode::from(f.code)
         }
     }
@@ -123,6 +125,23 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
             Ok(())
         }
     }
+}
+
+/// Whether the error is a library's complaint about run-configuration fields (which it
+/// names in backticks, and the command line shows as the flags that set them).
+fn names_fields(e: &anyhow::Error) -> bool {
+    use mmq_lab::LabError;
+    use mmq_learn::LearnError;
+    let lab = e.downcast_ref::<LabError>().or(match e.downcast_ref::<mmq_report::ReportError>() {
+        Some(mmq_report::ReportError::Lab(l)) => Some(l),
+        _ => None,
+    });
+    let learn = e.downcast_ref::<LearnError>().or(match lab {
+        Some(LabError::Learner(l)) => Some(l),
+        _ => None,
+    });
+    matches!(lab, Some(LabError::InvalidParam { .. } | LabError::EnvBuild(_)))
+        || matches!(learn, Some(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. }))
 }
 
 /// An error and its causes on one line, each said once (a message that already quotes its

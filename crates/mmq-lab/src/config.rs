@@ -118,17 +118,17 @@ impl RunConfig {
     pub fn validate(&self) -> Result<DelayDist, LabError> {
         if self.steps == 0 || self.steps > MAX_STEPS {
             return Err(LabError::param(
-                "--steps",
+                "steps",
                 self.steps,
                 "use a number of decision steps in 1..=10^10, e.g. 150000",
             ));
         }
         if self.seeds == 0 || self.seeds > 1_000_000 {
-            return Err(LabError::param("--seeds", self.seeds, "use a number of seeds in 1..=1000000"));
+            return Err(LabError::param("seeds", self.seeds, "use a number of seeds in 1..=1000000"));
         }
         if self.seed.checked_add(self.seeds - 1).is_none() {
             return Err(LabError::param(
-                "--seed",
+                "seed",
                 self.seed,
                 &format!(
                     "the {} seeds from it would pass 2^64 − 1; use a first seed of at most {}",
@@ -138,17 +138,17 @@ impl RunConfig {
             ));
         }
         if self.window == 0 {
-            return Err(LabError::param("--window", self.window, "use a window of at least 1 step"));
+            return Err(LabError::param("window", self.window, "use a window of at least 1 step"));
         }
         if self.eval_steps > MAX_STEPS {
-            return Err(LabError::param("--eval-steps", self.eval_steps, "use at most 10^10 steps"));
+            return Err(LabError::param("eval_steps", self.eval_steps, "use at most 10^10 steps"));
         }
         self.learner.validate()?;
         if let Some(r) = &self.record
             && !(r.pose_rate_hz.is_finite() && r.pose_rate_hz >= 0.0 && r.pose_rate_hz <= 10_000.0)
         {
             return Err(LabError::param(
-                "--record-rate",
+                "record.pose_rate_hz",
                 r.pose_rate_hz,
                 "use poses per second in [0, 10000]; 0 records every physics step",
             ));
@@ -166,7 +166,7 @@ impl RunConfig {
         let mut world = World::load(&self.world)?;
         if !self.robot.is_empty() {
             let table = mmq_robot::apply_overrides(world.robot.as_ref(), &self.robot)
-                .map_err(|e| LabError::EnvBuild(format!("--robot: {e}")))?;
+                .map_err(|e| LabError::EnvBuild(format!("`robot`: {e}")))?;
             world.robot = Some(table);
         }
         Ok(world)
@@ -202,7 +202,7 @@ mod tests {
     #[test]
     fn rejects_impossible_runs() {
         let mut c = RunConfig { steps: 0, ..RunConfig::default() };
-        assert!(c.validate().unwrap_err().to_string().contains("--steps = 0"));
+        assert!(c.validate().unwrap_err().to_string().contains("`steps` = 0"));
         c.steps = 10;
         c.delay = "poisson:-2".into();
         assert!(c.validate().unwrap_err().to_string().contains("negative"));
@@ -228,6 +228,6 @@ mod tests {
         assert_eq!((cfg.profile, cfg.preset), (mmq_robot::Profile::Realistic, mmq_robot::Preset::Kobuki));
         let bad = RunConfig { robot: vec!["speed=1".into()], ..c };
         let e = bad.load_world().unwrap_err().to_string();
-        assert!(e.contains("--robot") && e.contains("speed"), "{e}");
+        assert!(e.contains("`robot`") && e.contains("speed"), "{e}");
     }
 }

@@ -15,9 +15,9 @@ pub enum LabError {
     #[error(transparent)]
     Learner(#[from] mmq_learn::LearnError),
     /// An impossible run parameter.
-    #[error("{field} = {value} is not accepted; {accepted}")]
+    #[error("`{field}` = {value} is not accepted; {accepted}")]
     InvalidParam {
-        /// The flag or config field.
+        /// The run-configuration field (`mmq_lab::fields` maps it to a flag).
         field: String,
         /// The value given.
         value: String,

@@ -10,6 +10,7 @@ pub mod beyond;
 pub mod config;
 pub mod error;
 pub mod exec;
+pub mod fields;
 pub mod format;
 pub mod output;
 pub mod paper;

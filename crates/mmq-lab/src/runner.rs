@@ -591,10 +591,10 @@ pub fn run_all(
         if kept > all {
             let gib = |b: u128| b as f64 / (1u128 << 30) as f64;
             return Err(LabError::param(
-                "--seeds",
+                "seeds",
                 cfg.seeds,
                 &format!(
-                    "the tables of {} seeds ({:.1} GiB) are kept until written, more than the {:.1} GiB allowed; use fewer seeds or --no-tables",
+                    "the tables of {} seeds ({:.1} GiB) are kept until written, more than the {:.1} GiB allowed; use fewer `seeds` or `save_tables = false`",
                     seeds.len(),
                     gib(kept),
                     gib(all)

@@ -220,7 +220,7 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
     );
     if deconv && spec.max_delay > 1 << 16 {
         return bad(
-            "--max-delay",
+            "max_delay",
             spec.max_delay.to_string(),
             "the deconvolving learners accept at most 65536",
         );
@@ -231,7 +231,7 @@ pub fn validate(spec: &LearnerSpec) -> Result<(), LearnError> {
     if let Some(d) = &b.told_delay
         && DelayDist::parse(d).is_err()
     {
-        return bad("told_delay", d.clone(), "use a delay spec such as poisson:13 (see --delay)");
+        return bad("told_delay", d.clone(), "use a delay spec such as poisson:13 (see `delay`)");
     }
     if let Some(d) = &b.told_delay
         && DelayDist::parse(d).is_ok_and(|d| d.unit() == mmq_core::DelayUnit::Seconds)
@@ -253,7 +253,7 @@ pub fn deconv_config(spec: &LearnerSpec) -> Result<DeconvConfig, LearnError> {
             &DelayDist::parse(d).map_err(|_| LearnError::InvalidParam {
                 field: "told_delay",
                 value: d.clone(),
-                accepted: "use a delay spec such as poisson:13 (see --delay)",
+                accepted: "use a delay spec such as poisson:13 (see `delay`)",
             })?,
             spec.max_delay,
         )),

@@ -170,9 +170,9 @@ impl Default for LearnerSpec {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LearnError {
     /// A hyper-parameter outside its domain.
-    #[error("{field} = {value} is not accepted; {accepted}")]
+    #[error("`{field}` = {value} is not accepted; {accepted}")]
     InvalidParam {
-        /// The parameter (as a flag name).
+        /// The parameter, as the configuration names it.
         field: &'static str,
         /// The value given.
         value: String,
@@ -181,7 +181,7 @@ pub enum LearnError {
     },
     /// Tables that would not fit in memory.
     #[error(
-        "the {learner} tables would need {need_gib:.1} GiB ({entries} entries) but at most {limit_gib:.1} GiB is allowed; lower --max-delay or use a smaller world"
+        "the {learner} tables would need {need_gib:.1} GiB ({entries} entries) but at most {limit_gib:.1} GiB is allowed; lower `max_delay` or use a smaller world"
     )]
     TooLarge {
         /// Learner name.
@@ -211,16 +211,16 @@ impl LearnerSpec {
             Err(LearnError::InvalidParam { field, value: mmq_core::stats::compact(v), accepted })
         };
         if !(0.0..=1.0).contains(&p.alpha) {
-            return bad("--alpha", p.alpha, "use a learning rate in [0, 1], e.g. 0.1");
+            return bad("alpha", p.alpha, "use a learning rate in [0, 1], e.g. 0.1");
         }
         if !(0.0..1.0).contains(&p.gamma) {
-            return bad("--gamma", p.gamma, "use a discount factor in [0, 1), e.g. 0.9");
+            return bad("gamma", p.gamma, "use a discount factor in [0, 1), e.g. 0.9");
         }
         if !(0.0..=1.0).contains(&p.epsilon) {
-            return bad("--epsilon", p.epsilon, "use an exploration rate in [0, 1], e.g. 0.02");
+            return bad("epsilon", p.epsilon, "use an exploration rate in [0, 1], e.g. 0.02");
         }
         if !p.q0.is_finite() || p.q0.abs() > 1e12 {
-            return bad("--q0", p.q0, "use a finite initial value, e.g. 10");
+            return bad("q0", p.q0, "use a finite initial value, e.g. 10");
         }
         crate::beyond::validate(self)
     }
@@ -363,10 +363,10 @@ mod tests {
     fn refuses_impossible_parameters_and_huge_tables() {
         let mut s = LearnerSpec::default();
         s.params.alpha = 1.5;
-        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("--alpha = 1.5"));
+        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("`alpha` = 1.5"));
         s.params.alpha = 0.1;
         s.params.epsilon = f64::NAN;
-        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("--epsilon"));
+        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("`epsilon`"));
         s.params.epsilon = 0.1;
         s.beyond.joint_test = f64::NAN;
         assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("joint_test"));
@@ -386,7 +386,7 @@ mod tests {
         s.beyond.probe_precision = 0.5;
         s.max_delay = 1_000_000_000;
         let e = s.build(81, 4, 8 << 30).unwrap_err().to_string();
-        assert!(e.contains("--max-delay") && e.contains("GiB"), "{e}");
+        assert!(e.contains("`max_delay`") && e.contains("GiB"), "{e}");
         assert!(
             LearnerKind::parse("sarsa-x").unwrap_err().to_string().contains("known learners: q, fixed, mmq")
         );

@@ -15,7 +15,8 @@ use pyo3::types::PyDict;
 use crate::config::{config_err, load_world, robot_world, to_toml};
 use crate::seed_arg;
 
-/// Turns the CLI's flag names in a message (`--max-delay`) into keyword names (`max_delay`).
+/// Turns the fields (`` `max_delay` ``) and flags (`--max-delay`) a message names into keyword
+/// names (`max_delay`).
 pub fn kwarg_names(msg: &str) -> String {
     let mut out = String::with_capacity(msg.len());
     let mut rest = msg;
@@ -27,7 +28,7 @@ pub fn kwarg_names(msg: &str) -> String {
         rest = &tail[end..];
     }
     out.push_str(rest);
-    out
+    mmq_lab::fields::as_names(&out)
 }
 
 /// The shared parameters live in `params`, the paper's λ̂ and λ̂max at the top, everything

@@ -654,6 +654,14 @@ fn delay_window(mmq: &Group, rep: &mut Doc, stop: &AtomicBool, sfx: &str) -> Res
 
 /// Figs. 7–12 from the first seed of each learner (a representative run, as in the paper).
 fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Doc, sfx: &str) -> Result<(), ReportError> {
+    if mmq.results.is_empty() || q.results.is_empty() {
+        // Interrupted before a seed of each learner started: nothing to map.
+        let _ = writeln!(
+            rep.md,
+            "\n### Figs. 7–12{sfx}: not drawn (the runs were interrupted before they began)\n"
+        );
+        return Ok(());
+    }
     let _ = writeln!(
         rep.md,
         "\n### Figs. 7–12{sfx}: visits and policies after learning (seed {})\n",

@@ -102,7 +102,7 @@ pub struct Shard {
 impl Shard {
     /// Parses `K/N` with 1 ≤ K ≤ N.
     pub fn parse(s: &str) -> Result<Shard, LabError> {
-        let bad = || LabError::param("--shard", s, "use K/N with 1 <= K <= N, e.g. 2/8 (Slurm: --array=1-N)");
+        let bad = || LabError::param("shard", s, "use K/N with 1 <= K <= N, e.g. 2/8 (Slurm: --array=1-N)");
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
         let index: u64 = k.trim().parse().map_err(|_| bad())?;
         let count: u64 = n.trim().parse().map_err(|_| bad())?;
