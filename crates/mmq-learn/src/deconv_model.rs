@@ -54,7 +54,7 @@ use rand::RngExt;
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
 use crate::spec::Params;
-use crate::table::QTable;
+use crate::table::{QTable, q_table_methods};
 use crate::{Decision, Experience, Learner, Table, max_of};
 
 /// Model-based learner on counted transitions and deconvolved rewards.
@@ -355,13 +355,7 @@ impl Learner for DeconvModel {
         self.plan();
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
+    q_table_methods!(q);
 
     fn tables(&self) -> Vec<Table> {
         let mut t = vec![self.q.export("q")];

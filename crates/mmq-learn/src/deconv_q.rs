@@ -10,13 +10,13 @@
 //! yet heard of this visit's own reward, the transition of `replay_lag` steps ago is
 //! learned again by the same rule (a one-transition replay; 0 turns it off).
 
-use mmq_core::{Action, Rng, State};
+use mmq_core::{Action, State};
 
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
 use crate::spec::Params;
-use crate::table::QTable;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::table::{QTable, q_table_methods};
+use crate::{Experience, Learner, Table, max_of};
 
 /// Q-learning on R̂.
 #[derive(Clone, Debug)]
@@ -78,11 +78,6 @@ impl Learner for DeconvQ {
         "deconv-q"
     }
 
-    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
-        Decision { action, model: None, explored }
-    }
-
     fn observe(&mut self, e: &Experience<'_>) {
         self.deconv.observe_transition(self.q.index(e.state, e.action), e.next_state, e.reward);
         self.learn(e.state, e.action, e.next_state);
@@ -98,13 +93,7 @@ impl Learner for DeconvQ {
         self.seen += 1;
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
+    q_table_methods!(q, act(p));
 
     fn tables(&self) -> Vec<Table> {
         let mut t = vec![self.q.export("q")];

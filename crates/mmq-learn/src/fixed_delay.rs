@@ -6,12 +6,12 @@
 //! The reward received at t is credited to the pair from λ̂ steps ago (the mode of a
 //! Poisson delay is near its mean). Steps t < λ̂ make no update.
 
-use mmq_core::{Action, Rng, State};
+use mmq_core::{Action, State};
 
 use crate::policy::greedy_value;
 use crate::spec::Params;
-use crate::table::QTable;
-use crate::{Decision, Experience, Learner, Table};
+use crate::table::{QTable, q_table_methods};
+use crate::{Experience, Learner};
 
 /// Fixed-delay-estimate Q-learning.
 #[derive(Clone, Debug)]
@@ -45,11 +45,6 @@ impl Learner for FixedDelayQ {
         "fixed"
     }
 
-    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
-        Decision { action, model: Some(self.lambda_hat), explored }
-    }
-
     fn observe(&mut self, e: &Experience<'_>) {
         let n = self.history.len();
         self.history[(e.t as usize) % n] = (e.state as u32, e.action as u32, e.next_state as u32);
@@ -65,17 +60,7 @@ impl Learner for FixedDelayQ {
         *q = *q + alpha * (e.reward + gamma * m) - alpha * *q;
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
-
-    fn tables(&self) -> Vec<Table> {
-        vec![self.q.export("q")]
-    }
+    q_table_methods!(q, tables, act(p, model = lambda_hat));
 
     fn metrics(&self) -> Vec<(String, f64)> {
         vec![("learner/lambda_hat".into(), self.lambda_hat as f64)]

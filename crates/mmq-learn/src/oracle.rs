@@ -13,11 +13,11 @@
 
 use std::collections::HashMap;
 
-use mmq_core::{Action, Rng, State};
+use mmq_core::{Action, State};
 
 use crate::spec::Params;
-use crate::table::QTable;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::table::{QTable, q_table_methods};
+use crate::{Experience, Learner, max_of};
 
 /// Q-learning with true credit assignment (needs [`Truth`](crate::Truth)).
 #[derive(Clone, Debug)]
@@ -61,11 +61,6 @@ impl Learner for Oracle {
         "oracle"
     }
 
-    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
-        Decision { action, model: None, explored }
-    }
-
     fn observe(&mut self, e: &Experience<'_>) {
         let Some(truth) = e.truth else {
             // Without the ground truth the oracle is plain Q-learning (eq. 2); the
@@ -86,17 +81,7 @@ impl Learner for Oracle {
         }
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
-
-    fn tables(&self) -> Vec<Table> {
-        vec![self.q.export("q")]
-    }
+    q_table_methods!(q, tables, act(p));
 
     fn needs_truth(&self) -> bool {
         true

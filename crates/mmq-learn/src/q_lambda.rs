@@ -17,8 +17,8 @@
 use mmq_core::{Action, Rng, State};
 
 use crate::spec::Params;
-use crate::table::QTable;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::table::{QTable, q_table_methods};
+use crate::{Decision, Experience, Learner, max_of};
 
 /// Traces below this are dropped (their effect is below 1e-6 of one update).
 pub const TRACE_CUTOFF: f64 = 1e-6;
@@ -121,17 +121,7 @@ impl Learner for QLambda {
         self.traces.decay(gamma * self.trace_decay);
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
-
-    fn tables(&self) -> Vec<Table> {
-        vec![self.q.export("q")]
-    }
+    q_table_methods!(q, tables);
 
     fn metrics(&self) -> Vec<(String, f64)> {
         vec![

@@ -5,12 +5,12 @@
 //! r is whatever reward arrives at t — under a delay channel, rewards caused by earlier
 //! actions. This is the paper's "single-model Q-learning (λ̂ = 0)".
 
-use mmq_core::{Action, Rng, State};
+use mmq_core::{Action, State};
 
 use crate::policy::greedy_value;
 use crate::spec::Params;
-use crate::table::QTable;
-use crate::{Decision, Experience, Learner, Table};
+use crate::table::{QTable, q_table_methods};
+use crate::{Experience, Learner};
 
 /// Tabular Q-learning.
 #[derive(Clone, Debug)]
@@ -42,11 +42,6 @@ impl Learner for QLearning {
         "q"
     }
 
-    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
-        Decision { action, model: None, explored }
-    }
-
     #[inline]
     fn observe(&mut self, e: &Experience<'_>) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
@@ -57,17 +52,7 @@ impl Learner for QLearning {
         *q += alpha * (e.reward + gamma * m - *q);
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
-
-    fn tables(&self) -> Vec<Table> {
-        vec![self.q.export("q")]
-    }
+    q_table_methods!(q, tables, act(p));
 }
 
 #[cfg(test)]

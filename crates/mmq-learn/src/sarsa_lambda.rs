@@ -12,12 +12,12 @@
 //! is made when step t + 1 is observed (its action is a_{t+1}); the last step of a run
 //! is never learned. On-policy: exploratory actions do not cut the traces.
 
-use mmq_core::{Action, Rng, State};
+use mmq_core::{Action, State};
 
 use crate::q_lambda::Traces;
 use crate::spec::Params;
-use crate::table::QTable;
-use crate::{Decision, Experience, Learner, Table};
+use crate::table::{QTable, q_table_methods};
+use crate::{Experience, Learner};
 
 /// SARSA(λ).
 #[derive(Clone, Debug)]
@@ -53,11 +53,6 @@ impl Learner for SarsaLambda {
         "sarsa-lambda"
     }
 
-    fn act(&mut self, s: State, rng: &mut Rng) -> Decision {
-        let (action, explored) = self.q.epsilon_greedy(s, self.p.epsilon, rng);
-        Decision { action, model: None, explored }
-    }
-
     fn observe(&mut self, e: &Experience<'_>) {
         let (alpha, gamma) = (self.p.alpha, self.p.gamma);
         if let Some((s, a, r, s2)) = self.pending.take() {
@@ -75,17 +70,7 @@ impl Learner for SarsaLambda {
         self.pending = Some((e.state as u32, e.action as u32, e.reward, e.next_state as u32));
     }
 
-    fn greedy(&self, s: State, rng: &mut Rng) -> Action {
-        self.q.greedy(s, rng)
-    }
-
-    fn action_values(&self, s: State, out: &mut [f64]) {
-        out.copy_from_slice(self.q.row(s));
-    }
-
-    fn tables(&self) -> Vec<Table> {
-        vec![self.q.export("q")]
-    }
+    q_table_methods!(q, tables, act(p));
 
     fn metrics(&self) -> Vec<(String, f64)> {
         vec![("learner/trace_decay".into(), self.trace_decay)]

@@ -6,6 +6,58 @@
 
 use std::ops::{Deref, DerefMut};
 
+/// The [`Learner`](crate::Learner) methods every learner acting on one [`QTable`] shares,
+/// written once: inside `impl Learner for L`, `q_table_methods!(q);` gives `greedy` and
+/// `action_values` over the table in field `q`; `q_table_methods!(q, tables);` adds
+/// `tables` (the table, exported as "q"); `q_table_methods!(q, tables, act(p));` adds
+/// `act`, ε-greedy with the ε of the parameters in field `p` and no model to report, and
+/// `act(p, model = lambda_hat)` reports the field `lambda_hat` as the model
+/// (`q_table_methods!(q, act(p))`: `act` without `tables`). A learner's
+/// own file then holds its update rule.
+macro_rules! q_table_methods {
+    ($q:ident) => {
+        fn greedy(&self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> mmq_core::Action {
+            self.$q.greedy(s, rng)
+        }
+
+        fn action_values(&self, s: mmq_core::State, out: &mut [f64]) {
+            out.copy_from_slice(self.$q.row(s));
+        }
+    };
+    ($q:ident, tables) => {
+        q_table_methods!($q);
+
+        fn tables(&self) -> Vec<crate::Table> {
+            vec![self.$q.export("q")]
+        }
+    };
+    ($q:ident, act($p:ident)) => {
+        q_table_methods!($q);
+
+        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::Decision {
+            let (action, explored) = self.$q.epsilon_greedy(s, self.$p.epsilon, rng);
+            crate::Decision { action, model: None, explored }
+        }
+    };
+    ($q:ident, tables, act($p:ident)) => {
+        q_table_methods!($q, tables);
+
+        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::Decision {
+            let (action, explored) = self.$q.epsilon_greedy(s, self.$p.epsilon, rng);
+            crate::Decision { action, model: None, explored }
+        }
+    };
+    ($q:ident, tables, act($p:ident, model = $m:ident)) => {
+        q_table_methods!($q, tables);
+
+        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::Decision {
+            let (action, explored) = self.$q.epsilon_greedy(s, self.$p.epsilon, rng);
+            crate::Decision { action, model: Some(self.$m), explored }
+        }
+    };
+}
+pub(crate) use q_table_methods;
+
 use mmq_core::{Action, Rng, State};
 
 use crate::Table;
