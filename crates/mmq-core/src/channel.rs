@@ -66,20 +66,55 @@ impl Emission {
     }
 }
 
-/// Ground truth of the channel: every emission, by id.
+/// Ground truth of the channel: every emission, by id; or, trimmed
+/// ([`DelayedReward::trim_ledger`]), the emissions from the oldest one still in flight on.
 #[derive(Clone, Debug, Default)]
 pub struct Ledger {
+    /// The emissions kept, by id from `first`.
     emissions: Vec<Emission>,
+    /// Id of `emissions[0]` (0 unless trimmed).
+    first: u64,
+    /// Drop the delivered emissions older than every one in flight.
+    trim: bool,
 }
 
 impl Ledger {
-    /// The emission with this id.
+    /// The emission with this id (`None` if unknown, or trimmed away).
     pub fn get(&self, id: u64) -> Option<&Emission> {
-        self.emissions.get(id as usize)
+        self.emissions.get(usize::try_from(id.checked_sub(self.first)?).ok()?)
     }
-    /// All emissions so far, by id.
+    /// The emissions kept, by id from [`Ledger::first_id`]: every emission so far,
+    /// unless trimmed.
     pub fn emissions(&self) -> &[Emission] {
         &self.emissions
+    }
+    /// Id of the first emission kept (0 unless trimmed).
+    pub fn first_id(&self) -> u64 {
+        self.first
+    }
+    fn get_mut(&mut self, id: u64) -> &mut Emission {
+        &mut self.emissions[(id - self.first) as usize]
+    }
+    /// Adds the next emission (its id is `first_id() + emissions().len()`). Trimmed,
+    /// before the list grows, the delivered emissions older than every one in flight
+    /// are dropped when they are at least half of it (so each emission is moved at most
+    /// about once). The emissions delivered at the last step stay until an emission is
+    /// made at the next step: pushes come before deliveries within a step, so a step's
+    /// record always finds its deliveries and its emission.
+    fn push(&mut self, e: Emission) {
+        let n = self.emissions.len();
+        if self.trim && n == self.emissions.capacity() && n >= 64 {
+            let done = self.emissions.iter().take_while(|e| e.delivered()).count();
+            if done >= n / 2 {
+                self.emissions.drain(..done);
+                self.first += done as u64;
+            }
+        }
+        self.emissions.push(e);
+    }
+    fn clear(&mut self) {
+        self.emissions.clear();
+        self.first = 0;
     }
 }
 
@@ -234,7 +269,7 @@ impl<E: Env> DelayedReward<E> {
             sc.due.clear();
         }
         if let Some(l) = &mut self.ledger {
-            l.emissions.clear();
+            l.clear();
         }
         self.delivered_ids.clear();
         self.emitted_total = 0.0;
@@ -291,7 +326,7 @@ impl<E: Env> DelayedReward<E> {
             self.delivered_ids.clear();
             std::mem::swap(&mut self.delivered_ids, &mut self.ring_ids[slot]);
             for &id in &self.delivered_ids {
-                l.emissions[id as usize].due_s = now;
+                l.get_mut(id).due_s = now;
             }
         }
     }
@@ -310,8 +345,8 @@ impl<E: Env> DelayedReward<E> {
         r.sum_time += now;
         self.emitted_total += value;
         if let Some(l) = &mut self.ledger {
-            let id = l.emissions.len() as u64;
-            l.emissions.push(Emission {
+            let id = l.first + l.emissions.len() as u64;
+            l.push(Emission {
                 id,
                 t_emit: t,
                 value,
@@ -364,7 +399,7 @@ impl<E: Env> DelayedReward<E> {
             }));
             self.emitted_total += step.reward;
             if let Some(l) = &mut self.ledger {
-                l.emissions.push(Emission {
+                l.push(Emission {
                     id: seq,
                     t_emit: t,
                     value: step.reward,
@@ -392,7 +427,7 @@ impl<E: Env> DelayedReward<E> {
             self.stats.sum_steps += (t - e.t_emit) as f64;
             self.stats.sum_s += now - e.t_emit_s;
             if let Some(l) = &mut self.ledger {
-                let em = &mut l.emissions[e.seq as usize];
+                let em = l.get_mut(e.seq);
                 em.due = t;
                 em.delay = u32::try_from(t - e.t_emit).unwrap_or(u32::MAX - 1);
                 em.due_s = now;
@@ -449,6 +484,16 @@ impl<E: Env> DelayedReward<E> {
     /// The delays of everything delivered so far (kept with or without a ledger).
     pub fn delay_stats(&self) -> DelayStats {
         self.stats
+    }
+    /// Keeps only what a step's record needs of the ledger (`trim` = true): the
+    /// emissions from the oldest one still in flight on, which hold those in flight and
+    /// those delivered at the last step, instead of every emission of the run (a long
+    /// run's ledger grows by 64 bytes an emission). What [`Self::delivered_ids`],
+    /// [`Self::delivered_emissions`] and [`StepRecord::emission`] see is unchanged.
+    pub fn trim_ledger(&mut self, trim: bool) {
+        if let Some(l) = &mut self.ledger {
+            l.trim = trim;
+        }
     }
     /// The ground-truth ledger, when kept.
     pub fn ledger(&self) -> Option<&Ledger> {
@@ -636,6 +681,46 @@ mod tests {
         let v = d.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
         assert!((m - 13.0).abs() < 5.0 * (13.0 / n).sqrt(), "mean {m}");
         assert!((v - 13.0).abs() < 5.0 * ((2.0 * 169.0 + 13.0) / n).sqrt(), "var {v}");
+    }
+
+    #[test]
+    fn a_trimmed_ledger_shows_every_step_the_same_and_stays_small() {
+        for spec in ["poisson:13", "mix:0.5*poisson:3+0.5*poisson:500", "const:2.5s", "const:0"] {
+            let dist = DelayDist::parse(spec).unwrap();
+            let make = |trim| {
+                let mut ch = DelayedReward::new(Script::new(vec![10.0, -1.0, 0.0, -1.0]), &dist, true);
+                ch.trim_ledger(trim);
+                ch.reset(0, 9, Start::World).unwrap();
+                ch
+            };
+            let (mut full, mut trimmed) = (make(false), make(true));
+            let trace = StepTrace::default();
+            let mut longest = 0;
+            for _ in 0..20_000 {
+                let (a, b) = (full.step(0).unwrap(), trimmed.step(0).unwrap());
+                assert_eq!(a, b, "{spec}");
+                let parts = |ch: &DelayedReward<Script>| {
+                    let l = ch.ledger().unwrap();
+                    // Debug text: the NaN fields compare equal.
+                    format!("{:?}", ch.delivered_ids().iter().map(|&i| l.get(i).unwrap()).collect::<Vec<_>>())
+                };
+                assert_eq!(parts(&full), parts(&trimmed), "{spec}");
+                let (ra, rb) = (
+                    full.record(0, 0, None, false, &a, &trace),
+                    trimmed.record(0, 0, None, false, &b, &trace),
+                );
+                assert_eq!(format!("{:?}", ra.emission()), format!("{:?}", rb.emission()), "{spec}");
+                assert_eq!(ra.emission().is_some(), a.step.reward != 0.0, "{spec}");
+                longest = longest.max(trimmed.ledger().unwrap().emissions().len());
+            }
+            let l = trimmed.ledger().unwrap();
+            assert_eq!(full.ledger().unwrap().emissions().len(), 15_000, "{spec}");
+            assert_eq!(l.first_id() + l.emissions().len() as u64, 15_000, "{spec}");
+            // Bounded by the emissions in flight (a few thousand at most for the mixture's
+            // 500-step delays), not by the run's 15,000.
+            assert!(longest < 8_192, "{spec}: {longest} kept");
+            assert!(l.first_id() > 0, "{spec}");
+        }
     }
 
     #[test]

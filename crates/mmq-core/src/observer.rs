@@ -143,6 +143,13 @@ pub trait Observer {
     fn step_gate(&self) -> Option<StepGate> {
         None
     }
+    /// Whether `on_step` reads emissions of [`StepRecord::ledger`] other than the step's
+    /// own ([`StepRecord::emission`]) and its deliveries ([`StepRecord::delivered_ids`]).
+    /// `true` (the default) has the runner keep every emission of the run; `false` only
+    /// those a step's record needs ([`crate::DelayedReward::trim_ledger`]).
+    fn ledger_history(&self) -> bool {
+        true
+    }
     /// Called when the gate opens again after steps were skipped, before step `at.t`.
     fn on_resume(&mut self, _at: &Resume) {}
     /// Called at intervals with the learner's per-cell visit counts and greedy values.

@@ -86,6 +86,9 @@ impl Observer for Halting {
     fn trace_period_s(&self) -> Option<f64> {
         self.rec.trace_period_s()
     }
+    fn ledger_history(&self) -> bool {
+        self.rec.ledger_history()
+    }
     fn on_start(&mut self, info: &mmq_core::RunInfo<'_>, s: mmq_core::State, t: f64) {
         self.rec.on_start(info, s, t);
     }

@@ -324,6 +324,9 @@ fn learn<E: Env>(
     let needs_truth = learner.needs_truth();
     let ledger = cfg.ledger || needs_truth || observer.is_some();
     let mut ch = DelayedReward::new(env, dist, ledger);
+    // Nothing here reads the ledger after a step's record (the oracle: the step's
+    // deliveries), so only an observer asking for it gets the run's whole history.
+    ch.trim_ledger(!observer.as_ref().is_some_and(|o| o.ledger_history()));
     let seed = seeds.master();
     let env_err = |source| LabError::Env { seed, source };
     let mut s =

@@ -277,10 +277,10 @@ impl LiveServer {
             speed: self.speed,
             anchor: None,
             last_time_sent: None,
-            last_time_wall: None,
+            time_until: 0,
             next_pose_ns: 0,
-            last_pose_wall: None,
-            last_sent: vec![None; self.shared.channels.len()],
+            pose_until: 0,
+            sent_until: vec![0; self.shared.channels.len()],
         }
     }
 
@@ -316,29 +316,27 @@ pub struct LiveTap {
     /// Pacing reference: (wall clock, simulated ns) when pacing started.
     anchor: Option<(Instant, u64)>,
     last_time_sent: Option<u64>,
-    /// Server clock (ms) of the last time update sent.
-    last_time_wall: Option<u64>,
+    /// Server clock (ms) before which no time update is sent ([`LIVE_MIN_GAP`] after
+    /// the last one; 0: none sent yet).
+    time_until: u64,
     /// Simulated time from which the next pose may be sent, ns.
     next_pose_ns: u64,
-    /// Server clock (ms) of the last pose sent.
-    last_pose_wall: Option<u64>,
-    /// Server clock (ms) of the last message sent, per slot.
-    last_sent: Vec<Option<u64>>,
+    /// Server clock (ms) before which no pose is sent (as `time_until`).
+    pose_until: u64,
+    /// Server clock (ms) before which no message is sent, per slot (as `time_until`).
+    sent_until: Vec<u64>,
 }
 
-/// Whether less than [`LIVE_MIN_GAP`] has passed from `last` to `now_ms`; times in
-/// milliseconds of the server's clock.
-fn within_gap(last: Option<u64>, now_ms: u64) -> bool {
-    last.is_some_and(|t| now_ms.saturating_sub(t) < LIVE_MIN_GAP.as_millis() as u64)
-}
+/// [`LIVE_MIN_GAP`] in milliseconds of the server's clock.
+const GAP_MS: u64 = LIVE_MIN_GAP.as_millis() as u64;
 
-/// Whether [`LIVE_MIN_GAP`] has passed from `last` to `now_ms` (then `last` becomes
-/// `now_ms`); times in milliseconds of the server's clock.
-fn gap_passed(last: &mut Option<u64>, now_ms: u64) -> bool {
-    if within_gap(*last, now_ms) {
+/// Whether the gap that ends at `until` has passed at `now_ms` (then the next one ends
+/// [`LIVE_MIN_GAP`] from now); times in milliseconds of the server's clock.
+fn gap_passed(until: &mut u64, now_ms: u64) -> bool {
+    if now_ms < *until {
         return false;
     }
-    *last = Some(now_ms);
+    *until = now_ms + GAP_MS;
     true
 }
 
@@ -385,10 +383,10 @@ impl LiveTap {
         // The clock first: asking the channel for its subscribers costs more (a few
         // atomic operations) and most messages of an unpaced run fall within the gap.
         let now = self.now_ms();
-        if within_gap(self.last_sent[slot], now) || !ch.has_sinks() {
+        if now < self.sent_until[slot] || !ch.has_sinks() {
             return false;
         }
-        self.last_sent[slot] = Some(now);
+        self.sent_until[slot] = now + GAP_MS;
         true
     }
 
@@ -414,7 +412,7 @@ impl LiveTap {
                 }
             }
             let now = self.now_ms();
-            sinks = sinks && gap_passed(&mut self.last_sent[slot], now);
+            sinks = sinks && gap_passed(&mut self.sent_until[slot], now);
         }
         if sinks {
             ch.log_with_meta(&self.scratch, PartialMetadata { log_time: Some(log_time) });
@@ -438,12 +436,33 @@ impl LiveTap {
         }
         let ch = &self.shared.channels[slot];
         let now = self.now_ms();
-        if within_gap(self.last_sent[slot], now) || !ch.has_sinks() {
+        if now < self.sent_until[slot] || !ch.has_sinks() {
             return;
         }
-        self.last_sent[slot] = Some(now);
+        self.sent_until[slot] = now + GAP_MS;
         ch.log_with_meta(bytes, PartialMetadata { log_time: Some(log_time) });
         self.pace(log_time);
+    }
+
+    /// Whether every message of the given `slots` (thinned per topic: not latched, not
+    /// contacts or notes), the next pose and the next time update fall within
+    /// [`LIVE_MIN_GAP`] of the last one of their kind sent: then none of them would go
+    /// to the clients now. One load of the server's clock: a recorder skips such a step
+    /// after keeping its running figures (and pacing it, [`Self::pace_step`]).
+    #[inline]
+    pub(crate) fn quiet(&self, slots: &[usize]) -> bool {
+        let now = self.now_ms();
+        now < self.pose_until
+            && now < self.time_until
+            && slots.iter().all(|&i| self.sent_until.get(i).is_some_and(|&u| now < u))
+    }
+
+    /// Paces a step that sends nothing (see [`Self::quiet`]): what [`Self::step_end`]
+    /// does for it.
+    pub(crate) fn pace_step(&mut self, log_time: u64) {
+        if self.speed > 0.0 && self.has_clients() {
+            self.pace(log_time);
+        }
     }
 
     /// Whether the pose sample at `log_time` goes to the clients (with its estimate):
@@ -454,7 +473,7 @@ impl LiveTap {
             return false;
         }
         let now = self.now_ms();
-        if !gap_passed(&mut self.last_pose_wall, now) {
+        if !gap_passed(&mut self.pose_until, now) {
             return false;
         }
         self.next_pose_ns = (log_time / LIVE_POSE_PERIOD_NS + 1) * LIVE_POSE_PERIOD_NS;
@@ -501,7 +520,7 @@ impl LiveTap {
             return;
         }
         let now = self.now_ms();
-        if !gap_passed(&mut self.last_time_wall, now) {
+        if !gap_passed(&mut self.time_until, now) {
             return;
         }
         self.last_time_sent = Some(log_time);

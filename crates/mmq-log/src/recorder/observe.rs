@@ -25,6 +25,11 @@ impl Observer for McapRecorder {
         if self.file { None } else { self.live.as_ref().map(|l| l.gate()) }
     }
 
+    /// A step's messages need only its own emission and deliveries from the ledger.
+    fn ledger_history(&self) -> bool {
+        false
+    }
+
     /// Picks up the running figures the skipped steps would have kept: the step count,
     /// the reward totals and the next emission's id, the step's start time.
     fn on_resume(&mut self, at: &Resume) {
@@ -161,6 +166,48 @@ impl Observer for McapRecorder {
     }
 
     fn on_step(&mut self, rec: &StepRecord<'_>) {
+        if !self.skip_quiet_step(rec) {
+            self.step(rec);
+        }
+    }
+
+    fn on_tables(&mut self, t: u64, sim_time_s: f64, visits: &[f64], values: &[f64]) {
+        if !self.config.heatmaps {
+            return;
+        }
+        let Some(run) = &self.run else { return };
+        let log_time = if run.grid { t * self.period_ns } else { ns(sim_time_s + self.time_offset_s) };
+        let n = run.world.num_cells();
+        if visits.len() != n || values.len() != n {
+            let msg = format!(
+                "heat maps skipped at step {t}: {} visit and {} value entries for {n} cells",
+                visits.len(),
+                values.len()
+            );
+            self.note(log_time, m::LOG_WARNING, msg);
+            return;
+        }
+        let visits = heatmap(&run.world, log_time, "visits", visits);
+        let value = heatmap(&run.world, log_time, "value", values);
+        self.write(Ch::Visits, log_time, &visits);
+        self.write(Ch::Value, log_time, &value);
+    }
+
+    fn on_finish(&mut self, t: u64, complete: bool) {
+        if !self.file {
+            // Steps skipped behind the gate at the end were seen all the same.
+            self.stats.steps_seen = self.stats.steps_seen.max(t);
+        }
+        if let Err(e) = self.finish(t, complete) {
+            self.error = Some(e);
+        }
+    }
+}
+
+impl McapRecorder {
+    /// Everything a step writes; see the module documentation.
+    #[inline(never)]
+    fn step(&mut self, rec: &StepRecord<'_>) {
         let Some(run) = &self.run else { return };
         let grid = run.grid;
         let t = rec.t;
@@ -289,40 +336,75 @@ impl Observer for McapRecorder {
         self.maybe_flush();
     }
 
-    fn on_tables(&mut self, t: u64, sim_time_s: f64, visits: &[f64], values: &[f64]) {
-        if !self.config.heatmaps {
-            return;
+    /// A live-only grid step (no file) of which the live view would send nothing now
+    /// but the latched scenes ([`crate::live::LiveTap::quiet`]: its decision, emission,
+    /// delivery, teleport, pose and time update all fall within the thinning's gap; no
+    /// contact; inside the window, a client connected): keeps the running figures
+    /// exactly as the full path would, paces, and returns `true`. Else returns `false`
+    /// and does nothing. An unpaced watched run skips nearly every step this way (the
+    /// messages that do go out are some 30 a second).
+    fn skip_quiet_step(&mut self, rec: &StepRecord<'_>) -> bool {
+        const D: usize = Ch::Decision as usize;
+        const E: usize = Ch::Emitted as usize;
+        const R: usize = Ch::Delivered as usize;
+        const T: usize = Ch::Teleport as usize;
+        let Some(live) = self.live.as_ref() else { return false };
+        let emitted = rec.emitted != 0.0;
+        let delivered = rec.delivered != 0.0 || !rec.delivered_ids.is_empty();
+        let teleport = rec.event == Event::Teleport;
+        let slots: &[usize] = match (emitted, delivered, teleport) {
+            (false, false, false) => &[D],
+            (true, false, false) => &[D, E],
+            (false, true, false) => &[D, R],
+            (true, true, false) => &[D, E, R],
+            (false, false, true) => &[D, T],
+            (true, false, true) => &[D, E, T],
+            (false, true, true) => &[D, R, T],
+            (true, true, true) => &[D, E, R, T],
+        };
+        // The clock first: it fails only when something is due (some 30 times a second).
+        if !live.quiet(slots)
+            || self.file
+            || !self.prev_recorded
+            || !rec.trace.contacts.is_empty()
+            || !live.has_clients()
+            || !self.run.as_ref().is_some_and(|r| r.grid)
+            || !self.config.window.is_none_or(|w| w.contains(rec.t))
+        {
+            return false;
         }
-        let Some(run) = &self.run else { return };
-        let log_time = if run.grid { t * self.period_ns } else { ns(sim_time_s + self.time_offset_s) };
-        let n = run.world.num_cells();
-        if visits.len() != n || values.len() != n {
-            let msg = format!(
-                "heat maps skipped at step {t}: {} visit and {} value entries for {n} cells",
-                visits.len(),
-                values.len()
-            );
-            self.note(log_time, m::LOG_WARNING, msg);
-            return;
+        // What `on_step` keeps over every step.
+        if emitted {
+            let id = rec.emission().map_or(self.next_emission_id, |e| e.id);
+            self.next_emission_id = id + 1;
+            self.emitted_total += rec.emitted;
         }
-        let visits = heatmap(&run.world, log_time, "visits", visits);
-        let value = heatmap(&run.world, log_time, "value", values);
-        self.write(Ch::Visits, log_time, &visits);
-        self.write(Ch::Value, log_time, &value);
+        self.delivered_total += rec.delivered;
+        self.stats.steps_seen += 1;
+        self.stats.steps_recorded += 1;
+        // What `write_motion` and `write_pose` keep for a pose held back.
+        if let Some(h) = move_heading(rec.action) {
+            self.heading = h;
+        }
+        let end_ns = (rec.t + 1) * self.period_ns;
+        if teleport {
+            self.heading = 0.0;
+            // The scenes are latched: they keep their time (and go out when their gap
+            // has passed), as in the full path.
+            self.write_scenes(end_ns);
+        }
+        if self.run.as_ref().is_some_and(|r| rec.next_state < r.world.num_cells()) {
+            self.topics[Ch::Tf as usize].count += 1;
+            self.topics[Ch::Pose as usize].count += 1;
+        }
+        self.live_pose = false;
+        if let Some(live) = self.live.as_mut() {
+            live.pace_step(end_ns);
+        }
+        self.step_start_s = end_ns as f64 * 1e-9;
+        true
     }
 
-    fn on_finish(&mut self, t: u64, complete: bool) {
-        if !self.file {
-            // Steps skipped behind the gate at the end were seen all the same.
-            self.stats.steps_seen = self.stats.steps_seen.max(t);
-        }
-        if let Err(e) = self.finish(t, complete) {
-            self.error = Some(e);
-        }
-    }
-}
-
-impl McapRecorder {
     /// Poses and contacts of a step, in time order.
     fn write_motion(&mut self, rec: &StepRecord<'_>, grid: bool, end_ns: u64) {
         let trace = rec.trace;

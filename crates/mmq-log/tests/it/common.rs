@@ -53,6 +53,8 @@ pub fn run_grid(
 ) -> Vec<StepLog> {
     let dist = DelayDist::parse("poisson:5").unwrap();
     let mut ch = DelayedReward::new(GridEnv::new(world), &dist, true);
+    // As the runner: only what the observer reads of the ledger.
+    ch.trim_ledger(!obs.ledger_history());
     let mut s = ch.reset(seed, seed + 1, Start::World).unwrap();
     let names = ch.env().action_names();
     let facts = vec![("grid_step_period_s".to_string(), mmq_grid::STEP_PERIOD_S.to_string())];

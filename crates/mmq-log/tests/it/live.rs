@@ -222,6 +222,9 @@ impl mmq_core::Observer for Gate {
     fn step_gate(&self) -> Option<mmq_core::StepGate> {
         self.rec.step_gate()
     }
+    fn ledger_history(&self) -> bool {
+        self.rec.ledger_history()
+    }
     fn on_resume(&mut self, at: &mmq_core::Resume) {
         self.rec.on_resume(at);
     }
@@ -478,9 +481,23 @@ fn a_watched_recording_is_the_recording_and_live_poses_are_thinned() {
 /// totals and emission ids picked up where the skipped steps left them).
 #[test]
 fn a_client_joining_mid_run_gets_the_recordings_messages() {
+    // 50× real time while watched: the 1200 steps left take some 2.4 s.
+    joining_mid_run_gets_the_recordings_messages(50.0, 2400);
+}
+
+/// The same at 1000× real time (some 3 s for the 28,800 steps left): nearly every
+/// watched step sends nothing (the thinning holds its messages back, some 300 steps in a
+/// row) and keeps only the running figures, which the messages that do go out show.
+#[test]
+fn a_client_joining_a_fast_run_mid_run_gets_the_recordings_messages() {
+    joining_mid_run_gets_the_recordings_messages(1000.0, 30_000);
+}
+
+/// A client joins at step 1200 of a live-only run of `steps` paced at `speed`.
+fn joining_mid_run_gets_the_recordings_messages(speed: f64, steps: u64) {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("g.mcap");
-    let (steps, join_at) = (2400, 1200);
+    let join_at = 1200;
     // The same run (seed 5, tables every 200 steps) recorded to a file.
     let mut rec = McapRecorder::create(RecorderConfig::new(&path)).unwrap();
     common::run_grid(&common::world("paper-9x9"), &mut rec, steps, 5, 200);
@@ -493,8 +510,7 @@ fn a_client_joining_mid_run_gets_the_recordings_messages() {
         let v: Value = serde_json::from_slice(&m.data).unwrap();
         recorded.entry((m.channel.topic.clone(), m.log_time)).or_default().push(v);
     }
-    // 50× real time while watched: the 1200 steps left take some 2.4 s.
-    let server = LiveServer::start(&local(50.0)).unwrap();
+    let server = LiveServer::start(&local(speed)).unwrap();
     let (started, go) = (Arc::new(AtomicBool::new(false)), Arc::new(AtomicBool::new(false)));
     let run = run_live_waiting_at(&server, steps, join_at, started.clone(), go.clone());
     wait_for(&started);
