@@ -4,7 +4,8 @@
 
 use nalgebra::DMatrix;
 
-use super::linalg::{Gram, joint_failure, joint_inverse, update_inverse};
+use super::gram::Gram;
+use super::linalg::{joint_failure, joint_inverse, update_inverse};
 use super::stats::UNSEEN;
 use super::{CD_SWEEPS, Deconvolver, ELIM_SWEEPS, MIXED, PAIR_PENALTY};
 
@@ -227,7 +228,7 @@ impl Deconvolver {
             grouped,
             groups,
             gss,
-            diag: (0..n).map(|i| g.get(i, i)).collect(),
+            diag: (0..n).map(|i| g.diag(i)).collect(),
         }
     }
 
@@ -245,7 +246,8 @@ impl Deconvolver {
                 r[i] = rs[gi] + rp[i];
             }
         }
-        let gr: Vec<f64> = (0..n).map(|i| l.g.row_dot(i, &r)).collect();
+        let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
+        let gr = l.g.times_sparse(&support, &r);
         Iterate { rp, rs, r, gr, excluded: vec![false; n] }
     }
 
@@ -308,7 +310,7 @@ impl Deconvolver {
         for (i, &x) in self.stats.pairs.iter().enumerate() {
             self.r[x as usize] = it.r[i];
             self.r_pair[x as usize] = it.rp[i];
-            penalty += l.threshold(l.g.get(i, i), l.pair_factor) * it.rp[i].abs()
+            penalty += l.threshold(l.g.diag(i), l.pair_factor) * it.rp[i].abs()
                 + 0.5 * l.ridge * it.rp[i] * it.rp[i];
         }
         for (gi, (_, members)) in l.groups.iter().enumerate() {
