@@ -3,7 +3,7 @@
 //! and their counts. A step adds K + 1 keys to a pending buffer; before the counts are
 //! read the buffer is sorted, run-length encoded and merged into the list. Memory is 12
 //! bytes per distinct triple (at most (K + 1) per step, far fewer once the agent repeats
-//! itself), independent of the number of pairs the world has; an index by pair (8 bytes
+//! itself), independent of the number of pairs the world has; an index by pair (16 bytes
 //! per pair and 4 per triple) lets a row of the Gram matrix read only its own triples.
 
 use std::sync::Arc;
