@@ -4,7 +4,7 @@
 //! run of 150,000 steps (the refits grow sparser with t, so the cost per step depends on
 //! the horizon); throughput in steps per second. Results: docs/performance.md.
 //!
-//! `cargo bench -p mmq-learn --bench deconv_scaling` (one world: append its name, e.g.
+//! `cargo bench --workspace --bench deconv_scaling` (one world: append its name, e.g.
 //! `-- open-30x30`).
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -78,6 +78,66 @@ pub struct DeconvModel {
     probes_taken: u64,
     /// The confidence rule (M2), when on (else the fixed count `optimism_visits`).
     confidence: Option<Confidence>,
+    /// The states whose values the next sweep must recompute, and the deconvolver's
+    /// refits when R̂ was last planned with ([`Dirty`]).
+    dirty: Dirty,
+}
+
+/// Which states a sweep of (M1) must recompute: the others would get their values
+/// bit for bit again, because nothing they are computed from changed since their last
+/// computation. A state's values change only with R̂ (at a refit: every state), its own
+/// pairs' counts and knownness (the state just left) or the value of a successor
+/// (a state whose value changed marks its predecessors; those after it in state order
+/// are recomputed in the same sweep, as in a full Gauss–Seidel sweep).
+#[derive(Clone, Debug)]
+struct Dirty {
+    /// One bit per state.
+    bits: Vec<u64>,
+    /// The states with a pair that has led to each state.
+    preds: Vec<Vec<u32>>,
+    /// The deconvolver's refits at the last sweep (None: no sweep yet).
+    refits: Option<u64>,
+    /// Pairs tried but not yet known under (M2): checked at every sweep.
+    pending: Vec<u32>,
+}
+
+impl Dirty {
+    fn new(num_states: usize) -> Self {
+        Self {
+            bits: vec![0; num_states.div_ceil(64)],
+            preds: vec![Vec::new(); num_states],
+            refits: None,
+            pending: Vec::new(),
+        }
+    }
+
+    #[inline]
+    fn mark(&mut self, s: usize) {
+        self.bits[s / 64] |= 1 << (s % 64);
+    }
+
+    fn mark_all(&mut self, num_states: usize) {
+        self.bits.iter_mut().for_each(|w| *w = u64::MAX);
+        if !num_states.is_multiple_of(64)
+            && let Some(last) = self.bits.last_mut()
+        {
+            *last = (1 << (num_states % 64)) - 1;
+        }
+    }
+
+    /// Takes the first marked state at or after `from`, if any.
+    #[inline]
+    fn take_from(&mut self, from: usize) -> Option<usize> {
+        let mut w = from / 64;
+        let mut word = *self.bits.get(w)? & (u64::MAX << (from % 64));
+        while word == 0 {
+            w += 1;
+            word = *self.bits.get(w)?;
+        }
+        let b = word.trailing_zeros() as usize;
+        self.bits[w] &= !(1 << b);
+        Some(w * 64 + b)
+    }
 }
 
 /// The state of the confidence rule (M2).
@@ -201,6 +261,7 @@ impl DeconvModel {
             probe_due: false,
             probes_taken: 0,
             confidence: None,
+            dirty: Dirty::new(num_states),
         }
     }
 
@@ -269,24 +330,45 @@ impl DeconvModel {
         })
     }
 
-    /// One Gauss–Seidel sweep of (M1) over every state, in state order.
+    /// One Gauss–Seidel sweep of (M1) over every state, in state order. States none of
+    /// whose inputs changed since their last computation are skipped ([`Dirty`]): they
+    /// would get the same values, so the sweep's result is that of the full sweep.
     pub fn plan(&mut self) {
         let (a_n, gamma, q0, m) = (self.q.num_actions(), self.p.gamma, self.p.q0, self.optimism_visits);
-        let mut confidence = self.confidence.take();
-        if let Some(c) = confidence.as_mut() {
+        let num_states = self.v.len();
+        let refits = self.deconv.refits();
+        if self.dirty.refits != Some(refits) {
+            self.dirty.mark_all(num_states);
+            self.dirty.refits = Some(refits);
+        }
+        if let Some(c) = self.confidence.as_mut() {
             // Before the first fit σ̂² is Σ r² / t (an upper bound), which changes every step.
-            if c.refits != Some(self.deconv.refits()) || self.deconv.refits() == 0 {
+            if c.refits != Some(refits) || refits == 0 {
                 c.update(&self.deconv);
             }
             c.fill_deficits();
+            // Knownness changes only for pairs tried and not yet known.
+            let (tries, Dirty { bits, pending, .. }) = (&self.tries, &mut self.dirty);
+            pending.retain(|&x| {
+                let x = x as usize;
+                if c.known(x, tries[x]) {
+                    bits[x / a_n / 64] |= 1 << (x / a_n % 64);
+                    false
+                } else {
+                    true
+                }
+            });
+            c.clear_deficits();
         }
-        for s in 0..self.v.len() {
+        let mut from = 0;
+        while let Some(s) = self.dirty.take_from(from) {
+            from = s + 1;
             let mut best = f64::NEG_INFINITY;
             for a in 0..a_n {
                 let i = s * a_n + a;
                 let n = self.tries[i];
-                let optimistic = match confidence.as_mut() {
-                    Some(c) => !c.known(i, n),
+                let optimistic = match self.confidence.as_ref() {
+                    Some(c) => !c.latched[i],
                     None => n < m || n == 0,
                 };
                 let q = if optimistic {
@@ -300,12 +382,14 @@ impl DeconvModel {
                 self.q[i] = q;
                 best = best.max(q);
             }
-            self.v[s] = best;
+            if best.to_bits() != self.v[s].to_bits() {
+                self.v[s] = best;
+                let Dirty { bits, preds, .. } = &mut self.dirty;
+                for &p in &preds[s] {
+                    bits[p as usize / 64] |= 1 << (p % 64);
+                }
+            }
         }
-        if let Some(c) = confidence.as_mut() {
-            c.clear_deficits();
-        }
-        self.confidence = confidence;
     }
 }
 
@@ -341,6 +425,10 @@ impl Learner for DeconvModel {
         let i = self.q.index(e.state, e.action);
         self.deconv.observe_transition(i, e.next_state, e.reward);
         self.tries[i] += 1;
+        self.dirty.mark(e.state);
+        if self.tries[i] == 1 && self.confidence.is_some() {
+            self.dirty.pending.push(i as u32);
+        }
         if let Some(c) = self.confidence.as_mut() {
             c.recent.push_back(i as u32);
             if c.recent.len() > c.cum.len().max(1) {
@@ -350,7 +438,13 @@ impl Learner for DeconvModel {
         let s2 = e.next_state as u32;
         match self.next[i].iter_mut().find(|x| x.0 == s2) {
             Some(x) => x.1 += 1,
-            None => self.next[i].push((s2, 1)),
+            None => {
+                self.next[i].push((s2, 1));
+                let preds = &mut self.dirty.preds[s2 as usize];
+                if !preds.contains(&(e.state as u32)) {
+                    preds.push(e.state as u32);
+                }
+            }
         }
         self.plan();
     }

@@ -238,7 +238,7 @@ impl LearnerSpec {
             // Q, R̂ and the lagged reward sums of every pair (worst case: all pairs
             // visited), once per reward value when decoding (worst case: MAX_VALUES of
             // them); the sparse co-occurrence counts grow with the run instead (at most
-            // 12 bytes × (K + 1) per step, docs/performance.md).
+            // 16 bytes × (K + 1) per step, docs/performance.md).
             LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime => {
                 let sa = if self.kind == LearnerKind::DeconvModelTime {
                     sa + num_actions as u128 // the idle state

@@ -3,7 +3,10 @@
 //! and their counts. A step adds K + 1 keys to a pending buffer; before the counts are
 //! read the buffer is sorted, run-length encoded and merged into the list. Memory is 12
 //! bytes per distinct triple (at most (K + 1) per step, far fewer once the agent repeats
-//! itself), independent of the number of pairs the world has.
+//! itself), independent of the number of pairs the world has; an index by pair (16 bytes
+//! per pair and 4 per triple) lets a row of the Gram matrix read only its own triples.
+
+use std::sync::Arc;
 
 /// Bits of a packed key for the later pair and for the lag (the earlier pair takes the
 /// rest): i · 2^(PAIR_BITS + LAG_BITS) + i' · 2^LAG_BITS + j.
@@ -32,11 +35,95 @@ pub(crate) fn unpack(k: u64) -> (usize, usize, usize) {
     )
 }
 
-/// The sorted triples and their counts, and the keys not merged yet.
+/// The merged triples: their packed keys in key order and their counts, indexed by pair
+/// both ways (the triples of an earlier pair are contiguous; those of a later pair are
+/// listed by position), so that one row of the Gram matrix reads only its own triples.
 #[derive(Clone, Debug, Default)]
-pub(crate) struct CoCounts {
+pub(crate) struct Merged {
     keys: Vec<u64>,
     counts: Vec<u32>,
+    /// The triples with earlier pair i are at fptr[i]..fptr[i + 1].
+    fptr: Vec<usize>,
+    /// The positions of the triples with later pair i, in key order, are
+    /// tpos[tptr[i]..tptr[i + 1]].
+    tptr: Vec<usize>,
+    tpos: Vec<u32>,
+}
+
+impl Merged {
+    /// The index of `keys` over `n` pairs (more when they hold more).
+    fn new(keys: Vec<u64>, counts: Vec<u32>, n: usize) -> Self {
+        let n = keys.iter().fold(n, |n, &k| {
+            let (i, i2, _) = unpack(k);
+            n.max(i + 1).max(i2 + 1)
+        });
+        let mut fptr = vec![0usize; n + 1];
+        let mut tptr = vec![0usize; n + 1];
+        for &k in &keys {
+            let (i, i2, _) = unpack(k);
+            fptr[i + 1] += 1;
+            tptr[i2 + 1] += 1;
+        }
+        for i in 0..n {
+            fptr[i + 1] += fptr[i];
+            tptr[i + 1] += tptr[i];
+        }
+        let mut fill = tptr.clone();
+        let mut tpos = vec![0u32; keys.len()];
+        for (e, &k) in keys.iter().enumerate() {
+            let i2 = unpack(k).1;
+            tpos[fill[i2]] = e as u32;
+            fill[i2] += 1;
+        }
+        Self { keys, counts, fptr, tptr, tpos }
+    }
+
+    /// The pairs indexed.
+    pub(crate) fn n(&self) -> usize {
+        self.fptr.len().saturating_sub(1)
+    }
+
+    /// The triples (earlier `i`, ·, ·), as (later pair, lag, count) in key order.
+    pub(crate) fn triples_from(&self, i: usize) -> impl Iterator<Item = (usize, usize, u32)> + '_ {
+        let (lo, hi) = (self.fptr[i], self.fptr[i + 1]);
+        self.keys[lo..hi].iter().zip(&self.counts[lo..hi]).map(|(&k, &c)| {
+            let (_, i2, j) = unpack(k);
+            (i2, j, c)
+        })
+    }
+
+    /// The triples (·, later `i2`, ·), as (earlier pair, lag, count) in key order.
+    pub(crate) fn triples_to(&self, i2: usize) -> impl Iterator<Item = (usize, usize, u32)> + '_ {
+        self.tpos[self.tptr[i2]..self.tptr[i2 + 1]].iter().map(|&e| {
+            let (i, _, j) = unpack(self.keys[e as usize]);
+            (i, j, self.counts[e as usize])
+        })
+    }
+
+    /// The counts of (earlier `i`, later `i2`) by lag, as (lag, count) in lag order.
+    pub(crate) fn pair_run(&self, i: usize, i2: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
+        let (lo, hi) = if i < self.n() { (self.fptr[i], self.fptr[i + 1]) } else { (0, 0) };
+        let start = lo + self.keys[lo..hi].partition_point(|&k| k < key(i, i2, 0));
+        let last = key(i, i2, (1 << LAG_BITS) - 1);
+        self.keys[start..hi]
+            .iter()
+            .zip(&self.counts[start..hi])
+            .take_while(move |(k, _)| **k <= last)
+            .map(|(&k, &c)| (unpack(k).2, c))
+    }
+
+    /// Every triple, in key order, with its count.
+    #[cfg(test)]
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (u64, u32)> + '_ {
+        self.keys.iter().copied().zip(self.counts.iter().copied())
+    }
+}
+
+/// The merged triples (shared with the Gram matrices read from them) and the keys not
+/// merged yet.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CoCounts {
+    merged: Arc<Merged>,
     pending: Vec<u64>,
 }
 
@@ -46,18 +133,20 @@ impl CoCounts {
     pub(crate) fn add(&mut self, i: usize, i2: usize, j: usize) {
         self.pending.push(key(i, i2, j));
         if self.pending.len() >= PENDING_MAX {
-            self.merge();
+            self.merge(self.merged.n());
         }
     }
 
-    /// Merges the pending keys into the sorted list (the counts do not depend on when).
-    pub(crate) fn merge(&mut self) {
-        if self.pending.is_empty() {
+    /// Merges the pending keys into the sorted list and indexes it over `n` pairs (at
+    /// least every pair in it; the counts do not depend on when).
+    pub(crate) fn merge(&mut self, n: usize) {
+        if self.pending.is_empty() && self.merged.n() == n {
             return;
         }
         let mut new = std::mem::take(&mut self.pending);
         new.sort_unstable();
-        let (old_k, old_c) = (std::mem::take(&mut self.keys), std::mem::take(&mut self.counts));
+        let old = std::mem::take(&mut self.merged);
+        let (old_k, old_c) = (&old.keys, &old.counts);
         let mut keys = Vec::with_capacity(old_k.len() + new.len());
         let mut counts = Vec::with_capacity(old_k.len() + new.len());
         let (mut a, mut b) = (0, 0);
@@ -83,39 +172,32 @@ impl CoCounts {
                 a += 1;
             }
         }
+        drop(old);
         keys.shrink_to_fit();
         counts.shrink_to_fit();
-        self.keys = keys;
-        self.counts = counts;
+        self.merged = Arc::new(Merged::new(keys, counts, n));
         new.clear();
         self.pending = new;
     }
 
-    /// The merged triples, in key order (earlier pair, later pair, lag), with counts;
-    /// pending keys are not included ([`Self::merge`] first).
-    pub(crate) fn iter(&self) -> impl Iterator<Item = (u64, u32)> + '_ {
-        self.keys.iter().copied().zip(self.counts.iter().copied())
-    }
-
-    /// The merged counts of (earlier `i`, later `i2`) by lag, as (lag, count) in lag order.
-    pub(crate) fn pair_run(&self, i: usize, i2: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
-        let lo = self.keys.partition_point(|&k| k < key(i, i2, 0));
-        let hi = key(i, i2, (1 << LAG_BITS) - 1);
-        self.keys[lo..]
-            .iter()
-            .zip(&self.counts[lo..])
-            .take_while(move |(k, _)| **k <= hi)
-            .map(|(&k, &c)| (unpack(k).2, c))
+    /// The merged triples; pending keys are not included ([`Self::merge`] first).
+    pub(crate) fn merged(&self) -> &Arc<Merged> {
+        &self.merged
     }
 
     /// Distinct triples stored (merged).
     pub(crate) fn len(&self) -> usize {
-        self.keys.len()
+        self.merged.keys.len()
     }
 
-    /// Bytes held (merged and pending, by capacity).
+    /// Bytes held (merged, its index and pending, by capacity).
     pub(crate) fn bytes(&self) -> usize {
-        self.keys.capacity() * 8 + self.counts.capacity() * 4 + self.pending.capacity() * 8
+        let m = &self.merged;
+        m.keys.capacity() * 8
+            + m.counts.capacity() * 4
+            + m.tpos.capacity() * 4
+            + (m.fptr.capacity() + m.tptr.capacity()) * 8
+            + self.pending.capacity() * 8
     }
 }
 
@@ -140,17 +222,24 @@ mod tests {
         for &(i, i2, j) in &adds[..3] {
             c.add(i, i2, j);
         }
-        c.merge();
+        c.merge(3);
         for &(i, i2, j) in &adds[3..] {
             c.add(i, i2, j);
         }
         c.add(1, 2, 3);
-        c.merge();
-        c.merge();
-        let all: Vec<_> = c.iter().map(|(k, n)| (unpack(k), n)).collect();
+        c.merge(3);
+        c.merge(3);
+        let m = c.merged();
+        let all: Vec<_> = m.iter().map(|(k, n)| (unpack(k), n)).collect();
         assert_eq!(all, vec![((0, 0, 1), 1), ((1, 2, 0), 2), ((1, 2, 3), 2), ((2, 1, 0), 1)]);
-        assert_eq!(c.pair_run(1, 2).collect::<Vec<_>>(), vec![(0, 2), (3, 2)]);
-        assert_eq!(c.pair_run(2, 2).count(), 0);
+        assert_eq!(m.pair_run(1, 2).collect::<Vec<_>>(), vec![(0, 2), (3, 2)]);
+        assert_eq!(m.pair_run(2, 2).count(), 0);
         assert_eq!(c.len(), 4);
+        // The index: triples by earlier pair, and by later pair in key order.
+        assert_eq!(m.triples_from(1).collect::<Vec<_>>(), vec![(2, 0, 2), (2, 3, 2)]);
+        assert_eq!(m.triples_from(0).collect::<Vec<_>>(), vec![(0, 1, 1)]);
+        assert_eq!(m.triples_to(2).collect::<Vec<_>>(), vec![(1, 0, 2), (1, 3, 2)]);
+        assert_eq!(m.triples_to(1).collect::<Vec<_>>(), vec![(2, 0, 1)]);
+        assert_eq!(m.triples_to(0).collect::<Vec<_>>(), vec![(0, 1, 1)]);
     }
 }

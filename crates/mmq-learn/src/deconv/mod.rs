@@ -49,6 +49,7 @@
 //! goal's reward to the goal rather than to the move into it one step earlier.
 
 mod counts;
+mod gram;
 mod linalg;
 mod pmf_fit;
 mod reward_fit;
@@ -306,8 +307,9 @@ impl Deconvolver {
     }
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without the
-    /// co-occurrence counts, which grow with the run (12 bytes per distinct (pair, pair,
-    /// lag) triple seen, at most K + 1 new ones per step; [`Self::count_bytes`]).
+    /// co-occurrence counts, which grow with the run (16 bytes per distinct (pair, pair,
+    /// lag) triple seen with its index, at most K + 1 new ones per step, and 16 per pair;
+    /// [`Self::count_bytes`]).
     pub fn stats_bytes(pairs: usize, max_delay: usize) -> u128 {
         LagStats::bytes(pairs, max_delay)
     }
@@ -409,9 +411,12 @@ impl Deconvolver {
             .iter()
             .map(|d| (d.rss.unwrap_or(d.stats.sum_r2).max(0.0) / d.stats.t.max(1) as f64).sqrt())
             .collect();
-        let fit_all = |ds: &mut [Deconvolver]| -> f64 {
-            let (g, a) = Self::shared_gram(ds);
-            ds.iter_mut().zip(&sigmas).map(|(d, &sigma)| d.fit_rewards(&g, a[0], sigma, false)).sum()
+        // The Gram matrices of this refit by pmf (the counts do not change during it): the
+        // joint test's is one of those before it, and rows read once are kept.
+        let mut grams: Vec<(Vec<f64>, gram::Gram, f64)> = Vec::new();
+        let mut fit_all = |ds: &mut [Deconvolver]| -> f64 {
+            let (g, a0) = Self::cached_gram(ds, &mut grams);
+            ds.iter_mut().zip(&sigmas).map(|(d, &sigma)| d.fit_rewards(g, a0, sigma, false)).sum()
         };
         fit_all(ds);
         if ds[0].cfg.told.is_none() {
@@ -438,20 +443,45 @@ impl Deconvolver {
                 }
             }
         }
-        let joint = ds.iter().any(Deconvolver::joint_on).then(|| Self::shared_gram(ds));
+        let joint = ds.iter().any(Deconvolver::joint_on);
+        let (g, a0) = if joint {
+            let (g, a0) = Self::cached_gram(ds, &mut grams);
+            (Some(g), a0)
+        } else {
+            (None, 0.0)
+        };
         for (d, &sigma) in ds.iter_mut().zip(&sigmas) {
-            if let Some((g, a)) = &joint
+            if let Some(g) = g
                 && d.joint_on()
             {
-                d.fit_rewards(g, a[0], sigma, true);
+                d.fit_rewards(g, a0, sigma, true);
             }
             d.refits += 1;
         }
     }
 
+    /// [`Self::shared_gram`] under the current p̂, from `cache` when it holds the matrix
+    /// for the same p̂ (bit for bit; the counts must not have changed since), and a_0.
+    fn cached_gram<'c>(
+        ds: &mut [Deconvolver],
+        cache: &'c mut Vec<(Vec<f64>, gram::Gram, f64)>,
+    ) -> (&'c gram::Gram, f64) {
+        let same = |p: &[f64]| p.iter().zip(&ds[0].pmf).all(|(x, y)| x.to_bits() == y.to_bits());
+        let at = match cache.iter().position(|(p, _, _)| same(p)) {
+            Some(at) => at,
+            None => {
+                let (g, a) = Self::shared_gram(ds);
+                cache.push((ds[0].pmf.clone(), g, a[0]));
+                cache.len() - 1
+            }
+        };
+        let (_, g, a0) = &cache[at];
+        (g, *a0)
+    }
+
     /// The Gram matrix of the first deconvolver's counts under its p̂, shared by all of
     /// `ds` (they see the same pairs and share p̂), and the a_j.
-    fn shared_gram(ds: &mut [Deconvolver]) -> (linalg::Gram, Vec<f64>) {
+    fn shared_gram(ds: &mut [Deconvolver]) -> (gram::Gram, Vec<f64>) {
         debug_assert!(ds.iter().all(|d| d.pmf == ds[0].pmf && d.stats.t == ds[0].stats.t));
         ds[0].stats.merge();
         ds[0].stats.gram(&ds[0].pmf)

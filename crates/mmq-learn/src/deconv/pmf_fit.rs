@@ -278,6 +278,9 @@ impl Deconvolver {
         let v0 = 0.01 * rmax * rmax;
         let mut a = vec![0.0; k_n * k_n];
         let mut c = vec![0.0; k_n];
+        // The variance factor of each lag.
+        let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
+        // The steps of the last K + 1 with y ≠ 0, oldest first: (step, y).
         let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
         let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
         for (t, (&i, &rt)) in self.hist_x.iter().zip(&self.hist_r).enumerate() {
@@ -295,14 +298,22 @@ impl Deconvolver {
             let mut v = v0;
             for &(u, yu) in &window {
                 let k = t - u;
-                v += (p[k] * (1.0 - p[k]) + delta) * yu * yu;
+                v += var[k] * yu * yu;
                 live.push((k, yu));
             }
             let w = 1.0 / v;
+            // c never holds −0, so adding the zeros of rt = 0 would change nothing.
+            if rt != 0.0 {
+                let wr = w * rt;
+                for &(k1, y1) in &live {
+                    c[k1] += wr * y1;
+                }
+            }
             for &(k1, y1) in &live {
-                c[k1] += w * rt * y1;
+                let wy = w * y1;
+                let row = &mut a[k1 * k_n..(k1 + 1) * k_n];
                 for &(k2, y2) in &live {
-                    a[k1 * k_n + k2] += w * y1 * y2;
+                    row[k2] += wy * y2;
                 }
             }
         }

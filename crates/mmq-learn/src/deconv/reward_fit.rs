@@ -4,7 +4,8 @@
 
 use nalgebra::DMatrix;
 
-use super::linalg::{Gram, joint_failure, joint_inverse, update_inverse};
+use super::gram::Gram;
+use super::linalg::{joint_failure, joint_inverse, update_inverse};
 use super::stats::UNSEEN;
 use super::{CD_SWEEPS, Deconvolver, ELIM_SWEEPS, MIXED, PAIR_PENALTY};
 
@@ -31,6 +32,8 @@ struct Lasso<'a> {
     gss: Vec<f64>,
     /// G(i, i) of each compact pair.
     diag: Vec<f64>,
+    /// The threshold of each pair's own feature.
+    pair_thr: Vec<f64>,
 }
 
 impl Lasso<'_> {
@@ -42,11 +45,16 @@ impl Lasso<'_> {
     /// The exact minimiser along one feature; with a sign constraint, clipped at zero
     /// (still exact: the one-dimensional problem is convex).
     fn soft(&self, z: f64, info: f64, factor: f64) -> f64 {
-        let thr = self.threshold(info, factor);
+        self.soft_at(z, self.threshold(info, factor), info + self.ridge)
+    }
+
+    /// [`Self::soft`] with its threshold `thr` and denominator `den` = info + ridge.
+    #[inline]
+    fn soft_at(&self, z: f64, thr: f64, den: f64) -> f64 {
         let v = if z > thr {
-            (z - thr) / (info + self.ridge)
+            (z - thr) / den
         } else if z < -thr {
-            (z + thr) / (info + self.ridge)
+            (z + thr) / den
         } else {
             0.0
         };
@@ -99,7 +107,7 @@ impl Iterate {
                         continue;
                     }
                     let z = l.bvec[i] - self.gr[i] + gii * self.rp[i];
-                    let d = l.soft(z, gii, l.pair_factor) - self.rp[i];
+                    let d = l.soft_at(z, l.pair_thr[i], gii + l.ridge) - self.rp[i];
                     if d != 0.0 {
                         self.rp[i] += d;
                         self.shift(l.g, i, d);
@@ -210,13 +218,15 @@ impl Deconvolver {
         // enters the goal), the coarser one wins.
         let grouped = self.grouped();
         let groups = self.groups();
+        // Without group features the groups' sums are never read (their features stay 0).
         let gss = groups
             .iter()
-            .map(|(_, members)| {
-                members.iter().map(|&i| members.iter().map(|&i2| g.get(i, i2)).sum::<f64>()).sum()
+            .map(|(_, members)| match grouped {
+                true => members.iter().map(|&i| members.iter().map(|&i2| g.get(i, i2)).sum::<f64>()).sum(),
+                false => 0.0,
             })
             .collect();
-        Lasso {
+        let mut l = Lasso {
             g,
             bvec: self.stats.bvec(&self.pmf),
             ridge: self.cfg.reward_prior * a0,
@@ -227,8 +237,11 @@ impl Deconvolver {
             grouped,
             groups,
             gss,
-            diag: (0..n).map(|i| g.get(i, i)).collect(),
-        }
+            diag: (0..n).map(|i| g.diag(i)).collect(),
+            pair_thr: Vec::new(),
+        };
+        l.pair_thr = l.diag.iter().map(|&gii| l.threshold(gii, l.pair_factor)).collect();
+        l
     }
 
     /// The warm start: the previous fit's parts, their sums and G R.
@@ -245,7 +258,8 @@ impl Deconvolver {
                 r[i] = rs[gi] + rp[i];
             }
         }
-        let gr: Vec<f64> = (0..n).map(|i| l.g.row_dot(i, &r)).collect();
+        let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
+        let gr = l.g.times_sparse(&support, &r);
         Iterate { rp, rs, r, gr, excluded: vec![false; n] }
     }
 
@@ -308,7 +322,7 @@ impl Deconvolver {
         for (i, &x) in self.stats.pairs.iter().enumerate() {
             self.r[x as usize] = it.r[i];
             self.r_pair[x as usize] = it.rp[i];
-            penalty += l.threshold(l.g.get(i, i), l.pair_factor) * it.rp[i].abs()
+            penalty += l.threshold(l.g.diag(i), l.pair_factor) * it.rp[i].abs()
                 + 0.5 * l.ridge * it.rp[i] * it.rp[i];
         }
         for (gi, (_, members)) in l.groups.iter().enumerate() {

@@ -3,8 +3,8 @@
 //! reward sums B_k(x) = Σ_t r_t 1[x_{t−k} = x], from which the reward fit's Gram matrix
 //! and the pmf fit's least-squares system are built without the history.
 
-use super::counts::{CoCounts, unpack};
-use super::linalg::Gram;
+use super::counts::{CoCounts, Merged};
+use super::gram::{Edge, Gram};
 
 /// No pair yet.
 pub(crate) const UNSEEN: u32 = u32::MAX;
@@ -53,8 +53,9 @@ impl LagStats {
     }
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without
-    /// the co-occurrence counts (those grow with the run: 12 bytes per distinct
-    /// (pair, pair, lag) triple, at most K + 1 new ones per step).
+    /// the co-occurrence counts (those grow with the run: 16 bytes per distinct
+    /// (pair, pair, lag) triple with its index, at most K + 1 new ones per step, and 16
+    /// per pair).
     pub(crate) fn bytes(pairs: usize, max_delay: usize) -> u128 {
         let (p, k) = (pairs as u128, max_delay as u128 + 1);
         k * p * 8 + p * 24 + 16 * k
@@ -124,62 +125,36 @@ impl LagStats {
     /// Merges the pending co-occurrences (before [`Self::gram`] and
     /// [`Self::lag_products`]).
     pub(crate) fn merge(&mut self) {
+        let n = self.n();
         if let Some(c) = self.counts.as_mut() {
-            c.merge();
+            c.merge(n);
         }
     }
 
-    fn merged(&self) -> &CoCounts {
-        self.counts.as_ref().expect("statistics with co-occurrence counts")
+    fn merged(&self) -> &std::sync::Arc<Merged> {
+        self.counts.as_ref().expect("statistics with co-occurrence counts").merged()
     }
 
     /// G = Σ_{j≥0} a_j C_j + Σ_{j≥1} a_j C_jᵀ less the edge terms of the last K steps,
     /// a_j = Σ_k p(k) p(k+j); and the a_j. With H = a_0/2 C_0 + Σ_{j≥1} a_j C_j (summed
     /// over j in lag order, entry by entry), G(i, i') = H(i, i') + H(i', i): only pairs
-    /// that co-occurred within K steps have an entry.
+    /// that co-occurred within K steps have an entry. Its rows are read from the merged
+    /// counts when first needed ([`Gram`]).
     pub(crate) fn gram(&self, p: &[f64]) -> (Gram, Vec<f64>) {
-        let n = self.n();
         let k_n = self.k_n;
         // a_j = Σ_k p(k) p(k+j)
         let a: Vec<f64> = (0..k_n).map(|j| (0..k_n - j).map(|k| p[k] * p[k + j]).sum()).collect();
         let w: Vec<f64> = a.iter().enumerate().map(|(j, &aj)| if j == 0 { aj / 2.0 } else { aj }).collect();
-        // H in compressed rows: the triples come in (earlier, later, lag) order.
-        let mut hptr = vec![0usize; n + 1];
-        let (mut hcol, mut hval): (Vec<u32>, Vec<f64>) = (Vec::new(), Vec::new());
-        let mut cur = None;
-        let mut acc = 0.0;
-        for (key, c) in self.merged().iter() {
-            let (i, i2, j) = unpack(key);
-            if cur != Some((i, i2)) {
-                if let Some((ci, ci2)) = cur {
-                    hptr[ci + 1] += 1;
-                    hcol.push(ci2 as u32);
-                    hval.push(acc);
-                }
-                (cur, acc) = (Some((i, i2)), 0.0);
-            }
-            if w[j] != 0.0 {
-                acc += w[j] * c as f64;
-            }
-        }
-        if let Some((ci, ci2)) = cur {
-            hptr[ci + 1] += 1;
-            hcol.push(ci2 as u32);
-            hval.push(acc);
-        }
-        for i in 0..n {
-            hptr[i + 1] += hptr[i];
-        }
-        let mut g = symmetrise(n, &hptr, &hcol, &hval);
-        self.subtract_edges(&mut g, p);
-        (g, a)
+        (Gram::new(self.n(), self.merged().clone(), w, self.edges(p)), a)
     }
 
-    /// Edge terms: a pair (u − j, u) with u among the last K steps has fewer than K + 1
-    /// windows after it; C_j counted it with the full weight a_j.
-    fn subtract_edges(&self, g: &mut Gram, p: &[f64]) {
+    /// Edge terms, in the order they are subtracted: a pair (u − j, u) with u among the
+    /// last K steps has fewer than K + 1 windows after it; C_j counted it with the full
+    /// weight a_j.
+    pub(crate) fn edges(&self, p: &[f64]) -> Vec<Edge> {
         let k_n = self.k_n;
         let big_t = self.t;
+        let mut out = Vec::new();
         for u in self.start.max(big_t.saturating_sub(k_n as u64 - 1))..big_t {
             let left = (big_t - 1 - u) as usize; // windows end at t = u..=T−1, k' ≤ left
             for j in 0..=((k_n - 1).min((u - self.start) as usize)) {
@@ -187,13 +162,11 @@ impl LagStats {
                 if deficit == 0.0 {
                     continue;
                 }
-                let (v, w) = (self.past(u - j as u64), self.past(u));
-                g.sub(v, w, deficit);
-                if j > 0 {
-                    g.sub(w, v, deficit);
-                }
+                let (v, w) = (self.past(u - j as u64) as u32, self.past(u) as u32);
+                out.push(Edge { v, w, lagged: j > 0, deficit });
             }
         }
+        out
     }
 
     /// b(i) = Σ_k p(k) B_k(i) for every compact pair i.
@@ -227,53 +200,6 @@ impl LagStats {
         let k_n = self.k_n;
         (0..k_n).map(|k| (0..self.n()).map(|i| r[i] * self.b[i * k_n + k]).sum()).collect()
     }
-}
-
-/// G = H + Hᵀ from H in compressed rows (columns in order within each row): row r of G
-/// merges row r of H with row r of Hᵀ, adding where both have an entry.
-fn symmetrise(n: usize, hptr: &[usize], hcol: &[u32], hval: &[f64]) -> Gram {
-    // Hᵀ by counting sort: scanning H's rows in order leaves each row of Hᵀ in column order.
-    let mut tptr = vec![0usize; n + 1];
-    hcol.iter().for_each(|&c| tptr[c as usize + 1] += 1);
-    for i in 0..n {
-        tptr[i + 1] += tptr[i];
-    }
-    let mut fill = tptr.clone();
-    let (mut tcol, mut tval) = (vec![0u32; hcol.len()], vec![0.0; hcol.len()]);
-    for r in 0..n {
-        for e in hptr[r]..hptr[r + 1] {
-            let c = hcol[e] as usize;
-            tcol[fill[c]] = r as u32;
-            tval[fill[c]] = hval[e];
-            fill[c] += 1;
-        }
-    }
-    let mut ptr = Vec::with_capacity(n + 1);
-    ptr.push(0);
-    let (mut col, mut val) = (Vec::with_capacity(2 * hcol.len()), Vec::with_capacity(2 * hcol.len()));
-    for r in 0..n {
-        let (mut a, ae, mut b, be) = (hptr[r], hptr[r + 1], tptr[r], tptr[r + 1]);
-        while a < ae || b < be {
-            let ca = if a < ae { hcol[a] } else { u32::MAX };
-            let cb = if b < be { tcol[b] } else { u32::MAX };
-            if ca == cb {
-                col.push(ca);
-                val.push(hval[a] + tval[b]);
-                a += 1;
-                b += 1;
-            } else if ca < cb {
-                col.push(ca);
-                val.push(hval[a]);
-                a += 1;
-            } else {
-                col.push(cb);
-                val.push(tval[b]);
-                b += 1;
-            }
-        }
-        ptr.push(col.len());
-    }
-    Gram::from_parts(n, ptr, col, val)
 }
 
 #[cfg(test)]
@@ -314,9 +240,14 @@ mod tests {
                     g[i2 * n + i] = s;
                 }
             }
-            let mut gram = Gram::from_dense(n, g);
-            st.subtract_edges(&mut gram, p);
-            (0..n * n).map(|e| gram.get(e / n, e % n)).collect()
+            for e in st.edges(p) {
+                let (v, w) = (e.v as usize, e.w as usize);
+                g[v * n + w] -= e.deficit;
+                if e.lagged {
+                    g[w * n + v] -= e.deficit;
+                }
+            }
+            g
         }
 
         fn lag_products(&self, support: &[usize], r: &[f64]) -> Vec<f64> {
@@ -380,6 +311,14 @@ mod tests {
                 }
                 for p in &pmfs {
                     let (g, _) = st.gram(p);
+                    // Rows are read when first needed: the diagonal needs none.
+                    let d: Vec<f64> = (0..n).map(|i| g.diag(i)).collect();
+                    assert_eq!(g.rows_read(), 0);
+                    g.get(0, n - 1);
+                    assert_eq!(g.rows_read(), 1);
+                    for (i, di) in d.iter().enumerate() {
+                        assert_eq!(di.to_bits(), g.get(i, i).to_bits());
+                    }
                     let want = dense.gram(&st, p);
                     for e in 0..n * n {
                         assert_eq!(g.get(e / n, e % n).to_bits(), want[e].to_bits(), "t {t}, entry {e}");
