@@ -1,11 +1,12 @@
 //! `mmq run`: flags → validated `RunConfig` → config.toml → seeds in parallel →
-//! summary.json, metrics.csv, policy.csv, Q-tables; a short table on stdout.
+//! summary.json, metrics.csv, policy.csv, Q-tables; a short table on stdout
+//! (`mmq_report::text`).
 
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::EnvKind;
 use mmq_lab::output::{OutKind, claim_out_dir, write_config, write_results};
-use mmq_lab::{Control, RunConfig, Summary, run_all};
+use mmq_lab::{Control, RunConfig, run_all};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 
 use crate::cli::{EnvArg, RunArgs};
@@ -75,7 +76,7 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let outcome = outcome?;
     pb.finish_and_clear();
     let (summary, _files) = write_results(&a.out, &cfg, &world, &outcome.results, !outcome.interrupted)?;
-    print_summary(&summary);
+    print!("{}", mmq_report::text::run_summary(&summary));
     let failures = outcome.failures();
     if !failures.is_empty() {
         // The summary says incomplete; the exit code and one message per lost file say why.
@@ -103,34 +104,4 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
         println!("wrote {}", a.out.display());
     }
     Ok(())
-}
-
-/// A short human table of a summary.
-pub fn print_summary(s: &Summary) {
-    use mmq_lab::format;
-    let ceiling = s.ceiling_per_step.map_or(String::new(), |c| format!(", ε-soft ceiling {c:.4}/step"));
-    println!(
-        "{} on {} (optimum {:.4}/step{ceiling}), delay {}, {} steps × {} seeds",
-        s.learner, s.world, s.optimum_per_step, s.config.delay, s.config.steps, s.config.seeds
-    );
-    for (key, label, pct) in [
-        ("perf/relative", "relative performance vs undelayed Q", true),
-        ("perf/fraction_of_ceiling", "fraction of the ε-soft ceiling", true),
-        ("perf/fraction_of_optimum", "fraction of the exact optimum", true),
-        ("perf/regret", "regret against the optimum (reward)", false),
-        ("reward/earned_per_step", "earned reward per step", false),
-        ("eval/greedy_per_step", "greedy evaluation, reward per step", false),
-        ("baseline/earned_per_step", "undelayed Q-learning, reward per step", false),
-        ("delay/delivered_mean_steps", "mean delay delivered, steps", false),
-        ("delay/delivered_mean_s", "mean delay delivered, seconds", false),
-    ] {
-        if let Some(m) = s.get(key) {
-            let text = if key == "perf/regret" { format::mean_num(&m, 1) } else { format::mean(&m, pct) };
-            println!("  {label:<40} {text:>18}");
-        }
-    }
-    for note in &s.notes {
-        println!("  note: {note}");
-    }
-    println!("  (horizon: {} steps; relative performance depends on it)", s.config.steps);
 }

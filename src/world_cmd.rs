@@ -1,6 +1,6 @@
 //! `mmq world list|check|show`.
 
-use mmq_core::{Move, World, optimum};
+use mmq_core::{World, optimum};
 use mmq_lab::runner::robot_env;
 
 use crate::Failure;
@@ -60,43 +60,8 @@ pub fn world(args: WorldArgs) -> Result<(), Failure> {
             Ok(())
         }
         WorldAction::Show { file } => {
-            let w = World::load(&file)?;
-            let o = optimum(&w);
-            println!("{} ({}×{}): {}", w.name, w.width, w.height, w.description);
-            println!("\nmap:");
-            print!("{}", indent(&w.ascii()));
-            println!("\noptimal policy (all optimal moves; · = any):");
-            let mut s = String::new();
-            for r in 0..w.height {
-                for c in 0..w.width {
-                    let i = w.index(r, c);
-                    let cell = if !w.is_free(i) {
-                        "#".to_string()
-                    } else if i == w.goal {
-                        "G".to_string()
-                    } else {
-                        let arrows: String = Move::ALL
-                            .iter()
-                            .enumerate()
-                            .filter(|(a, _)| o.is_optimal(i, *a))
-                            .map(|(_, m)| m.arrow())
-                            .collect();
-                        if arrows.chars().count() == 4 { "·".to_string() } else { arrows }
-                    };
-                    s.push_str(&format!("{cell:<3}"));
-                }
-                s.push('\n');
-            }
-            print!("{}", indent(&s));
-            println!(
-                "\noptimal average reward: {:.6} per step (rewards: goal {}, wall {}, step {}; cell {} m; start {:?})",
-                o.gain, w.rewards.goal, w.rewards.wall, w.rewards.step, w.cell_size, w.start
-            );
+            print!("{}", mmq_report::text::world(&World::load(&file)?));
             Ok(())
         }
     }
-}
-
-fn indent(s: &str) -> String {
-    s.lines().map(|l| format!("  {l}\n")).collect()
 }
