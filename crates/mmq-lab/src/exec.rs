@@ -73,8 +73,9 @@ pub fn baseline_config(cfg: &RunConfig) -> RunConfig {
 pub fn baselines_needed(jobs: &[Job<'_>]) -> Vec<(BaselineKey, u64)> {
     let mut seen = HashSet::new();
     jobs.iter()
-        .filter(|j| j.cfg.baseline && seen.insert(BaselineKey::of(j.cfg, j.seed)))
+        .filter(|j| j.cfg.baseline)
         .map(|j| (BaselineKey::of(j.cfg, j.seed), j.cfg.steps))
+        .filter(|(k, _)| seen.insert(k.clone()))
         .collect()
 }
 
@@ -208,6 +209,21 @@ pub fn run_jobs_observed(
     }
 }
 
+/// [`run_jobs_observed`] with the results in job order: `None` for a job that was not
+/// run (the stop flag was set before it started).
+pub fn run_jobs_in_order(
+    jobs: &[Job<'_>],
+    observers: Option<&ObserverFactory<'_>>,
+    ctl: Control<'_>,
+) -> Result<Vec<Option<SeedResult>>, LabError> {
+    let slots: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..jobs.len()).map(|_| None).collect());
+    run_jobs_observed(jobs, observers, ctl, &|i, r| {
+        slots.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(r);
+        Ok(())
+    })?;
+    Ok(slots.into_inner().unwrap_or_else(|p| p.into_inner()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -259,13 +275,7 @@ mod tests {
             Job { cfg: &other, world: &world, dist: &dist, seed: 5 },
         ];
         assert_eq!(baselines_needed(&jobs).len(), 1);
-        let got: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..2).map(|_| None).collect());
-        run_jobs(&jobs, ctl, &|i, r| {
-            got.lock().unwrap()[i] = Some(r);
-            Ok(())
-        })
-        .unwrap();
-        let got = got.into_inner().unwrap();
+        let got = run_jobs_in_order(&jobs, None, ctl).unwrap();
         // run_seed with the baseline flag runs the same baseline itself.
         let own = run_seed(&c, &world, &dist, 5, None, ctl, 1 << 30).unwrap();
         let own_base = own.baseline.as_ref().unwrap();

@@ -9,7 +9,6 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Mutex;
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
@@ -18,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
-use crate::exec::{Job, run_jobs};
+use crate::exec::{Job, run_jobs_in_order};
 use crate::runner::{Control, SeedResult, memory_limit, run_seed};
 
 /// Options of `mmq paper`.
@@ -170,13 +169,9 @@ pub fn run_groups(cfgs: Vec<RunConfig>, ctl: Control<'_>) -> Result<Vec<Group>, 
             owner.push(g);
         }
     }
-    let slots: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..jobs.len()).map(|_| None).collect());
-    run_jobs(&jobs, ctl, &|i, r| {
-        slots.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(r);
-        Ok(())
-    })?;
+    let results = run_jobs_in_order(&jobs, None, ctl)?;
     let mut groups: Vec<Group> = cfgs.into_iter().map(|cfg| Group { cfg, results: Vec::new() }).collect();
-    for (g, r) in owner.into_iter().zip(slots.into_inner().unwrap_or_else(|p| p.into_inner())) {
+    for (g, r) in owner.into_iter().zip(results) {
         if let Some(r) = r {
             groups[g].results.push(r);
         }

@@ -2,7 +2,6 @@
 //! metrics, the greedy evaluation and the undelayed baseline; and many seeds in
 //! parallel, in seed order, so results never depend on the thread count.
 
-use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
@@ -18,7 +17,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
-use crate::exec::{Job, run_jobs_observed};
+use crate::exec::{Job, run_jobs_in_order};
 
 /// How a run is steered from outside: a stop flag (Ctrl-C) and a progress callback.
 #[derive(Clone, Copy)]
@@ -606,13 +605,8 @@ pub fn run_all(
         }
     }
     let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed }).collect();
-    let slots: Mutex<Vec<Option<SeedResult>>> = Mutex::new((0..jobs.len()).map(|_| None).collect());
-    run_jobs_observed(&jobs, Some(observers), ctl, &|i, r| {
-        slots.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(r);
-        Ok(())
-    })?;
     let out: Vec<SeedResult> =
-        slots.into_inner().unwrap_or_else(|p| p.into_inner()).into_iter().flatten().collect();
+        run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
     let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
     Ok(RunOutcome { results: out, interrupted })
 }
