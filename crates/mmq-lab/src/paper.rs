@@ -12,13 +12,14 @@ use std::path::{Path, PathBuf};
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
-use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use mmq_learn::LearnerKind;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::exec::{Job, run_jobs_in_order};
 use crate::runner::{Control, SeedResult, memory_limit, run_seed};
+use crate::sweep::SweepSpec;
 
 /// Options of `mmq paper`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -52,31 +53,7 @@ impl PaperOptions {
     fn world(&self, name: &str) -> Result<World, LabError> {
         Ok(World::load(self.worlds.join(format!("{name}.toml")))?)
     }
-
-    fn cfg(&self, world: &str, env: EnvKind, kind: LearnerKind, params: Params, delay: &str) -> RunConfig {
-        RunConfig {
-            world: self.worlds.join(format!("{world}.toml")),
-            env,
-            learner: LearnerSpec { kind, params, lambda_hat: 0, max_delay: 50, beyond: Default::default() },
-            delay: delay.into(),
-            steps: self.steps,
-            seed: self.seed,
-            seeds: self.seeds,
-            window: self.window,
-            eval_steps: 1000,
-            baseline: false,
-            save_tables: false,
-            ledger: false,
-            record: None,
-            robot: Vec::new(),
-        }
-    }
 }
-
-/// ε and q0 of Figs. 2–4 (the independent reference measurements use these).
-pub const EXPLORE_FIGS_2_4: Params = Params { alpha: 0.1, gamma: 0.9, epsilon: 0.05, q0: 10.0 };
-/// ε and q0 of Fig. 6 (the setting that reaches the paper's ≈ 95 %).
-pub const EXPLORE_FIG_6: Params = Params { alpha: 0.1, gamma: 0.9, epsilon: 0.01, q0: 20.0 };
 
 /// A setting run over seeds, with its undelayed baseline attached to every seed.
 #[derive(Clone, Debug)]
@@ -185,67 +162,99 @@ pub fn total_steps(cfgs: &[RunConfig]) -> u64 {
     cfgs.iter().map(|c| 2 * c.steps * c.seeds).sum()
 }
 
+/// The paper's budget, which the shipped figure specs state: steps per seed and steps
+/// per curve point. `mmq paper --quick` or `--steps` scale every spec by the same factor
+/// (the horizon study, whose spec runs four times as long, stays four times as long).
+pub const PAPER_STEPS: u64 = 150_000;
+/// Steps per curve point at [`PAPER_STEPS`].
+pub const PAPER_WINDOW: u64 = 2500;
+
+/// The paper's figures as sweep specs, shipped in the binary so that `mmq paper` runs
+/// from any folder; the same files are in `worlds/sweeps/`, where `mmq sweep` runs them
+/// and a copy with one line changed is the same study of a variant.
+pub const SPECS: &[(&str, &str)] = &[
+    ("paper-fig2", include_str!("../../../worlds/sweeps/paper-fig2.toml")),
+    ("paper-fig3", include_str!("../../../worlds/sweeps/paper-fig3.toml")),
+    ("paper-fig4", include_str!("../../../worlds/sweeps/paper-fig4.toml")),
+    ("paper-fig6", include_str!("../../../worlds/sweeps/paper-fig6.toml")),
+    ("paper-fig6-robot", include_str!("../../../worlds/sweeps/paper-fig6-robot.toml")),
+    ("paper-horizon", include_str!("../../../worlds/sweeps/paper-horizon.toml")),
+    ("paper-sensitivity", include_str!("../../../worlds/sweeps/paper-sensitivity.toml")),
+];
+
+/// The settings of the shipped spec `name` at the budget of `o`: one configuration per
+/// cell, in the spec's cell order, each with `o`'s seeds; steps and curve windows are
+/// the spec's scaled by `o.steps / PAPER_STEPS` and `o.window / PAPER_WINDOW`.
+pub fn spec_configs(o: &PaperOptions, name: &str) -> Result<Vec<RunConfig>, LabError> {
+    let text = SPECS.iter().find(|s| s.0 == name).map(|s| s.1).ok_or_else(|| LabError::Config {
+        file: format!("{name}.toml"),
+        message: format!(
+            "no shipped figure spec of that name; the shipped ones: {}",
+            SPECS.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
+        ),
+    })?;
+    let spec = SweepSpec::parse(text, Path::new(&format!("{name}.toml")))?;
+    let scale = |x: u64, by: u64, of: u64| (u128::from(x) * u128::from(by) / u128::from(of)) as u64;
+    Ok((0..spec.plan.cells.len())
+        .map(|c| {
+            let cell = spec.config(c);
+            RunConfig {
+                steps: scale(cell.steps, o.steps, PAPER_STEPS),
+                window: scale(cell.window, o.window, PAPER_WINDOW),
+                seed: o.seed,
+                seeds: o.seeds,
+                baseline: false,
+                ..cell.clone()
+            }
+        })
+        .collect())
+}
+
 /// Fig. 2: 3×3, plain Q-learning, relative performance vs Poisson mean λ = 0…20.
-pub fn fig2_configs(o: &PaperOptions) -> Vec<RunConfig> {
-    (0..=20)
-        .map(|l| o.cfg("paper-3x3", EnvKind::Grid, LearnerKind::Q, EXPLORE_FIGS_2_4, &format!("poisson:{l}")))
-        .collect()
+pub fn fig2_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError> {
+    spec_configs(o, "paper-fig2")
 }
 
 /// Fig. 3: λ = 5, plain Q-learning over time on 3×3, 5×5, 9×9.
-pub fn fig3_configs(o: &PaperOptions) -> Vec<RunConfig> {
-    ["paper-3x3", "paper-5x5", "paper-9x9"]
-        .iter()
-        .map(|w| o.cfg(w, EnvKind::Grid, LearnerKind::Q, EXPLORE_FIGS_2_4, "poisson:5"))
-        .collect()
+pub fn fig3_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError> {
+    spec_configs(o, "paper-fig3")
 }
 
 /// Fig. 4: 9×9, λ = 17, fixed-delay Q with λ̂ = λ + i, i = −10…10.
-pub fn fig4_configs(o: &PaperOptions) -> Vec<RunConfig> {
-    (-10i64..=10)
-        .map(|i| {
-            let mut c = o.cfg("paper-9x9", EnvKind::Grid, LearnerKind::Fixed, EXPLORE_FIGS_2_4, "poisson:17");
-            c.learner.lambda_hat = (17 + i) as usize;
-            c
-        })
-        .collect()
+pub fn fig4_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError> {
+    spec_configs(o, "paper-fig4")
 }
 
 /// Fig. 6 (and 7–12): 9×9, λ = 13, λ̂max = 50, MMQ and Q-learning, on `o.env`.
-pub fn fig6_configs(o: &PaperOptions) -> Vec<RunConfig> {
-    [LearnerKind::Mmq, LearnerKind::Q]
-        .iter()
-        .map(|&k| {
-            let mut c = o.cfg("paper-9x9", o.env, k, EXPLORE_FIG_6, "poisson:13");
-            c.save_tables = false;
-            c
-        })
-        .collect()
+pub fn fig6_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError> {
+    spec_configs(o, if o.env == EnvKind::Robot { "paper-fig6-robot" } else { "paper-fig6" })
 }
 
-/// How many times Fig. 6's horizon the horizon study runs.
-pub const HORIZON_FACTOR: u64 = 4;
-
-/// The horizon study: Fig. 6's MMQ run (grid) for [`HORIZON_FACTOR`] × its steps, so
-/// that relative performance can be read at every horizon up to that.
-pub fn horizon_configs(o: &PaperOptions) -> Vec<RunConfig> {
-    let mut c = o.cfg("paper-9x9", EnvKind::Grid, LearnerKind::Mmq, EXPLORE_FIG_6, "poisson:13");
-    c.save_tables = false;
-    c.steps = o.steps.saturating_mul(HORIZON_FACTOR);
-    c.window = o.window.saturating_mul(HORIZON_FACTOR);
-    vec![c]
+/// The horizon study: Fig. 6's MMQ run (grid) for several times its steps, so that
+/// relative performance can be read at every horizon up to that.
+pub fn horizon_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError> {
+    spec_configs(o, "paper-horizon")
 }
 
-/// Sensitivity of Fig. 6 to the unstated ε and q0 (grid): three settings × {MMQ, Q}.
-pub fn sensitivity_configs(o: &PaperOptions) -> Vec<RunConfig> {
-    let mut v = Vec::new();
-    for (eps, q0) in [(0.05, 10.0), (0.02, 10.0), (0.01, 20.0)] {
-        for k in [LearnerKind::Mmq, LearnerKind::Q] {
-            let p = Params { alpha: 0.1, gamma: 0.9, epsilon: eps, q0 };
-            v.push(o.cfg("paper-9x9", EnvKind::Grid, k, p, "poisson:13"));
+/// Sensitivity of Fig. 6 to the unstated ε and q0 (grid): the sensitivity spec's settings
+/// and Fig. 6's, from the most exploring setting to Fig. 6's (q0 rising, ε falling),
+/// each learner in its spec's order.
+pub fn sensitivity_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError> {
+    let grid = PaperOptions { env: EnvKind::Grid, ..o.clone() };
+    let mut v = spec_configs(&grid, "paper-sensitivity")?;
+    v.extend(spec_configs(&grid, "paper-fig6")?);
+    let order: Vec<LearnerKind> = v.iter().map(|c| c.learner.kind).fold(Vec::new(), |mut seen, k| {
+        if !seen.contains(&k) {
+            seen.push(k);
         }
-    }
-    v
+        seen
+    });
+    let rank = |c: &RunConfig| order.iter().position(|&k| k == c.learner.kind);
+    v.sort_by(|a, b| {
+        let (pa, pb) = (a.learner.params, b.learner.params);
+        pa.q0.total_cmp(&pb.q0).then(pb.epsilon.total_cmp(&pa.epsilon)).then(rank(a).cmp(&rank(b)))
+    });
+    Ok(v)
 }
 
 /// The exact optimum of a paper world.

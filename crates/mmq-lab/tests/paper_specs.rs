@@ -1,84 +1,101 @@
-//! The paper's figures as sweep specs (`worlds/sweeps/paper-*.toml`): each spec's cells
-//! are exactly the settings `mmq paper` runs for its figure at the paper's budget, so
-//! that `mmq sweep` on a spec, or on a copy with one line changed, is the same study.
+//! The paper's figures are the sweep specs in `worlds/sweeps/paper-*.toml`: `mmq paper`
+//! runs the copies shipped in the binary, `mmq sweep` the files. These tests hold the
+//! copies to the files and the specs to the settings the paper states.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use mmq_lab::RunConfig;
 use mmq_lab::config::EnvKind;
 use mmq_lab::paper::{self, PaperOptions};
-use mmq_lab::sweep::SweepSpec;
+use mmq_learn::LearnerKind;
 
-fn spec(name: &str) -> SweepSpec {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../worlds/sweeps").join(format!("{name}.toml"));
-    SweepSpec::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
-}
-
-/// A setting and its master seeds as text, with what only says where it comes from
-/// (the world's path; the baseline flag: the paper attaches the undelayed baseline
-/// itself) left out.
-fn key(c: &RunConfig, seeds: &[u64]) -> String {
-    let stem = c.world.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-    let c = RunConfig {
-        world: PathBuf::from(stem),
-        baseline: false,
-        save_tables: false,
-        seed: 0,
-        seeds: 0,
-        ..c.clone()
-    };
-    format!("{c:?} seeds {seeds:?}")
-}
-
-fn spec_keys(names: &[&str]) -> Vec<String> {
-    let mut v: Vec<String> = names
-        .iter()
-        .flat_map(|n| {
-            let s = spec(n);
-            (0..s.plan.cells.len()).map(|c| key(s.config(c), &s.plan.seeds)).collect::<Vec<_>>()
-        })
-        .collect();
-    v.sort();
-    v
-}
-
-fn code_keys(cfgs: Vec<RunConfig>) -> Vec<String> {
-    let mut v: Vec<String> = cfgs.iter().map(|c| key(c, &c.seed_list())).collect();
-    v.sort();
-    v
+fn specs_dir() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../worlds/sweeps")
 }
 
 #[test]
-fn every_paper_figure_spec_holds_exactly_the_figures_settings() {
-    let grid = PaperOptions::new(false, EnvKind::Grid);
-    let robot = PaperOptions::new(false, EnvKind::Robot);
-    let cases: [(&[&str], Vec<RunConfig>); 7] = [
-        (&["paper-fig2"], paper::fig2_configs(&grid)),
-        (&["paper-fig3"], paper::fig3_configs(&grid)),
-        (&["paper-fig4"], paper::fig4_configs(&grid)),
-        (&["paper-fig6"], paper::fig6_configs(&grid)),
-        (&["paper-fig6-robot"], paper::fig6_configs(&robot)),
-        (&["paper-horizon"], paper::horizon_configs(&grid)),
-        (&["paper-sensitivity", "paper-fig6"], paper::sensitivity_configs(&grid)),
-    ];
-    for (names, cfgs) in cases {
-        let (from_spec, from_code) = (spec_keys(names), code_keys(cfgs));
-        assert!(!from_code.is_empty());
-        let only_spec: Vec<&String> = from_spec.iter().filter(|k| !from_code.contains(k)).collect();
-        let only_code: Vec<&String> = from_code.iter().filter(|k| !from_spec.contains(k)).collect();
-        assert!(
-            only_spec.is_empty() && only_code.is_empty() && from_spec.len() == from_code.len(),
-            "{names:?}: only in the spec: {only_spec:#?}\nonly in the paper: {only_code:#?}"
-        );
+fn every_paper_spec_file_is_shipped_unchanged() {
+    let mut files: Vec<String> = std::fs::read_dir(specs_dir())
+        .expect("worlds/sweeps")
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with("paper-") && n.ends_with(".toml"))
+        .collect();
+    files.sort();
+    let mut shipped: Vec<String> = paper::SPECS.iter().map(|s| format!("{}.toml", s.0)).collect();
+    shipped.sort();
+    assert_eq!(files, shipped, "every worlds/sweeps/paper-*.toml is a figure `mmq paper` runs");
+    for (name, text) in paper::SPECS {
+        let on_disk = std::fs::read_to_string(specs_dir().join(format!("{name}.toml"))).expect("spec file");
+        assert_eq!(&on_disk, text, "{name}");
     }
 }
 
+fn world(c: &RunConfig) -> String {
+    c.world.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+fn eps_q0(c: &RunConfig) -> (f64, f64) {
+    (c.learner.params.epsilon, c.learner.params.q0)
+}
+
 #[test]
-fn the_comparison_of_settings_would_see_a_changed_line() {
-    // The check above is only as good as `key`: a spec that differs in one setting
-    // must not compare equal.
-    let grid = PaperOptions::new(false, EnvKind::Grid);
-    let mut cfgs = paper::fig6_configs(&grid);
-    cfgs[0].learner.params.epsilon = 0.02;
-    assert_ne!(spec_keys(&["paper-fig6"]), code_keys(cfgs));
+fn the_figures_hold_the_settings_the_paper_states() {
+    let o = PaperOptions::new(false, EnvKind::Grid);
+    // Fig. 2: Q-learning on 3×3, Poisson means 0 to 20 in this order.
+    let f2 = paper::fig2_configs(&o).unwrap();
+    let delays: Vec<String> = (0..=20).map(|l| format!("poisson:{l}")).collect();
+    assert_eq!(f2.iter().map(|c| c.delay.clone()).collect::<Vec<_>>(), delays);
+    assert!(f2.iter().all(|c| world(c) == "paper-3x3" && c.learner.kind == LearnerKind::Q));
+    assert!(f2.iter().all(|c| eps_q0(c) == (0.05, 10.0)));
+    // Fig. 3: Poisson(5) on the three worlds, smallest first.
+    let f3 = paper::fig3_configs(&o).unwrap();
+    assert_eq!(f3.iter().map(world).collect::<Vec<_>>(), ["paper-3x3", "paper-5x5", "paper-9x9"]);
+    assert!(f3.iter().all(|c| c.delay == "poisson:5"));
+    // Fig. 4: the fixed-delay learner with λ̂ = 17 − 10 … 17 + 10 under Poisson(17).
+    let f4 = paper::fig4_configs(&o).unwrap();
+    assert_eq!(f4.iter().map(|c| c.learner.lambda_hat).collect::<Vec<_>>(), (7..=27).collect::<Vec<_>>());
+    assert!(f4.iter().all(|c| c.learner.kind == LearnerKind::Fixed && c.delay == "poisson:17"));
+    // Fig. 6: MMQ and Q-learning on 9×9, Poisson(13), λ̂max 50, on the grid and the robot.
+    for (env, seeds) in [(EnvKind::Grid, 20), (EnvKind::Robot, 5)] {
+        let f6 = paper::fig6_configs(&PaperOptions::new(false, env)).unwrap();
+        let kinds: Vec<LearnerKind> = f6.iter().map(|c| c.learner.kind).collect();
+        assert_eq!(kinds, [LearnerKind::Mmq, LearnerKind::Q]);
+        for c in &f6 {
+            assert_eq!(
+                (world(c), c.delay.as_str(), c.learner.max_delay),
+                ("paper-9x9".into(), "poisson:13", 50)
+            );
+            assert_eq!((c.env, c.seeds, c.steps, c.window), (env, seeds, 150_000, 2500));
+            assert_eq!(eps_q0(c), (0.01, 20.0));
+        }
+    }
+    // The sensitivity table: from the most exploring setting to Fig. 6's, MMQ then Q.
+    let s = paper::sensitivity_configs(&o).unwrap();
+    let rows: Vec<(f64, f64, LearnerKind)> =
+        s.iter().map(|c| (eps_q0(c).0, eps_q0(c).1, c.learner.kind)).collect();
+    use LearnerKind::{Mmq, Q};
+    assert_eq!(
+        rows,
+        [
+            (0.05, 10.0, Mmq),
+            (0.05, 10.0, Q),
+            (0.02, 10.0, Mmq),
+            (0.02, 10.0, Q),
+            (0.01, 20.0, Mmq),
+            (0.01, 20.0, Q)
+        ]
+    );
+}
+
+#[test]
+fn a_smaller_budget_scales_every_figure_alike() {
+    let mut o = PaperOptions::new(true, EnvKind::Grid);
+    o.seed = 7;
+    let f6 = paper::fig6_configs(&o).unwrap();
+    let h = paper::horizon_configs(&o).unwrap();
+    assert_eq!((f6[0].steps, f6[0].window, f6[0].seeds, f6[0].seed), (30_000, 1000, 6, 7));
+    // The horizon study runs four times Fig. 6's horizon at any budget.
+    assert_eq!((h[0].steps, h[0].window, h[0].seeds), (120_000, 4000, 6));
+    assert_eq!(h[0].learner.kind, LearnerKind::Mmq);
+    assert!(paper::spec_configs(&o, "paper-fig5").is_err());
 }

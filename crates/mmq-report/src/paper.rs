@@ -13,6 +13,7 @@ use mmq_lab::Control;
 use mmq_lab::config::EnvKind;
 use mmq_lab::format::mean_pct as pct;
 use mmq_lab::paper::{self, Group, PaperOptions};
+use mmq_learn::LearnerKind;
 use mmq_plot::{ActionProbabilities, GridHeatmap, LineChart, PolicyArrows, RefLine, Series};
 
 use crate::{Doc, Progress, ReportError};
@@ -270,8 +271,7 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
              (ideal) profile: its controllers close the loop on the true pose, so with noise off its transitions are \
              the grid's exactly and, with the same seeds and steps, its numbers equal the grid's; the robot's realistic profile (odometry and \
              localisation) is the one that differs (docs/robot.md).",
-            paper::EXPLORE_FIG_6.epsilon,
-            paper::EXPLORE_FIG_6.q0
+            headline[0].1[0].cfg.learner.params.epsilon, headline[0].1[0].cfg.learner.params.q0
         );
         // The headline goes first, right after the introduction.
         let intro_end = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
@@ -307,7 +307,7 @@ fn run(
 }
 
 fn fig2(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress) -> Result<(), ReportError> {
-    let groups = run(paper::fig2_configs(o), "fig 2", stop, prog)?;
+    let groups = run(paper::fig2_configs(o)?, "fig 2", stop, prog)?;
     let pts: Vec<(u64, MeanCi)> = groups.iter().enumerate().map(|(l, g)| (l as u64, g.relative())).collect();
     let mut chart = LineChart::new(
         "Fig. 2: 3×3 grid, Q-learning under Poisson delay",
@@ -319,10 +319,7 @@ fn fig2(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress)
     let _ = writeln!(
         rep.md,
         "\n## Fig. 2: effect of larger delays (Section IV-A)\n\nSetting: 3×3, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds per λ.\n",
-        paper::EXPLORE_FIGS_2_4.epsilon,
-        paper::EXPLORE_FIGS_2_4.q0,
-        o.steps,
-        o.seeds
+        groups[0].cfg.learner.params.epsilon, groups[0].cfg.learner.params.q0, o.steps, o.seeds
     );
     let _ = writeln!(rep.md, "| λ | paper | reference | ours |\n|---|---|---|---|");
     for (l, paper_v, reference) in
@@ -346,7 +343,7 @@ fn fig2(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress)
 }
 
 fn fig3(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress) -> Result<(), ReportError> {
-    let groups = run(paper::fig3_configs(o), "fig 3", stop, prog)?;
+    let groups = run(paper::fig3_configs(o)?, "fig 3", stop, prog)?;
     let names = ["3×3", "5×5", "9×9"];
     let refs = ["≈ 85 %", "≈ 45 %", "≈ 1 %"];
     let mut chart =
@@ -355,10 +352,7 @@ fn fig3(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress)
     let _ = writeln!(
         rep.md,
         "\n## Fig. 3: effect of environment size (Section IV-B)\n\nSetting: λ = 5, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds.\n",
-        paper::EXPLORE_FIGS_2_4.epsilon,
-        paper::EXPLORE_FIGS_2_4.q0,
-        o.steps,
-        o.seeds
+        groups[0].cfg.learner.params.epsilon, groups[0].cfg.learner.params.q0, o.steps, o.seeds
     );
     let _ = writeln!(rep.md, "| world | paper | reference | ours (end) |\n|---|---|---|---|");
     for ((g, name), r) in groups.iter().zip(names).zip(refs) {
@@ -379,7 +373,7 @@ fn fig3(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress)
 }
 
 fn fig4(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress) -> Result<(), ReportError> {
-    let groups = run(paper::fig4_configs(o), "fig 4", stop, prog)?;
+    let groups = run(paper::fig4_configs(o)?, "fig 4", stop, prog)?;
     let pts: Vec<(i64, MeanCi)> =
         groups.iter().enumerate().map(|(k, g)| (k as i64 - 10, g.relative())).collect();
     let mut chart = LineChart::new(
@@ -398,10 +392,7 @@ fn fig4(o: &PaperOptions, rep: &mut Doc, stop: &AtomicBool, prog: &dyn Progress)
     let _ = writeln!(
         rep.md,
         "\n## Fig. 4: errors in the delay estimate (Section V)\n\nSetting: 9×9, Poisson λ = 17, fixed-delay Q (eq. 4) with λ̂ = λ + i, ε = {}, q0 = {}, {} steps, {} seeds per i.\n",
-        paper::EXPLORE_FIGS_2_4.epsilon,
-        paper::EXPLORE_FIGS_2_4.q0,
-        o.steps,
-        o.seeds
+        groups[0].cfg.learner.params.epsilon, groups[0].cfg.learner.params.q0, o.steps, o.seeds
     );
     let _ = writeln!(rep.md, "| quantity | paper | reference | ours |\n|---|---|---|---|");
     let _ = writeln!(rep.md, "| peak at i | near 0 (Poisson-shaped) | i ∈ [−1, +2] | i = {} |", best.0);
@@ -430,7 +421,7 @@ fn sensitivity(
     stop: &AtomicBool,
     prog: &dyn Progress,
 ) -> Result<(), ReportError> {
-    let groups = run(paper::sensitivity_configs(o), "ε, q0", stop, prog)?;
+    let groups = run(paper::sensitivity_configs(o)?, "ε, q0", stop, prog)?;
     let optimum = paper::optimum_of(o, "paper-9x9")?;
     let _ = writeln!(
         rep.md,
@@ -441,12 +432,24 @@ fn sensitivity(
         rep.md,
         "| ε | q0 | learner | relative | reference | fraction of optimum | greedy evaluation |\n|---|---|---|---|---|---|---|"
     );
-    let refs = ["74 ± 2 %", "−2 ± 2 %", "89 ± 2 %", "−2 %", "99 ± 3 %", "−4 %"];
+    // The independent reference measurements, by ε, q0 and learner.
+    let refs = [
+        (0.05, 10.0, LearnerKind::Mmq, "74 ± 2 %"),
+        (0.05, 10.0, LearnerKind::Q, "−2 ± 2 %"),
+        (0.02, 10.0, LearnerKind::Mmq, "89 ± 2 %"),
+        (0.02, 10.0, LearnerKind::Q, "−2 %"),
+        (0.01, 20.0, LearnerKind::Mmq, "99 ± 3 %"),
+        (0.01, 20.0, LearnerKind::Q, "−4 %"),
+    ];
     let mut csv = String::from(
         "epsilon,q0,learner,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,n\n",
     );
-    for (g, r) in groups.iter().zip(refs) {
+    for g in &groups {
         let p = g.cfg.learner.params;
+        let r = refs
+            .iter()
+            .find(|r| (r.0, r.1, r.2) == (p.epsilon, p.q0, g.cfg.learner.kind))
+            .map_or("—", |r| r.3);
         let (rel, frac, gr) = (g.relative(), g.fraction(optimum), g.greedy());
         let _ = writeln!(
             rep.md,
@@ -491,7 +494,15 @@ fn fig6(
 ) -> Result<(Vec<Group>, f64), ReportError> {
     let env = o.env.name();
     let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
-    let groups = run(paper::fig6_configs(o), &format!("fig 6 {env}"), stop, prog)?;
+    let mut groups = run(paper::fig6_configs(o)?, &format!("fig 6 {env}"), stop, prog)?;
+    // MMQ first, then Q-learning, whatever the spec's order.
+    groups.sort_by_key(|g| g.cfg.learner.kind != LearnerKind::Mmq);
+    if groups.len() != 2 || groups[1].cfg.learner.kind != LearnerKind::Q {
+        return Err(ReportError::Lab(mmq_lab::LabError::Config {
+            file: format!("the Fig. 6 spec ({env})"),
+            message: "Fig. 6 compares exactly two settings, `mmq` and `q`".into(),
+        }));
+    }
     let world = paper::world_of(o, "paper-9x9")?;
     let optimum = mmq_core::optimum(&world).gain;
     let (mmq, q) = (&groups[0], &groups[1]);
@@ -499,8 +510,8 @@ fn fig6(
         rep.md,
         "\n## Fig. 6{}: MMQ vs Q-learning under Poisson delay (Section VII), {env}\n\nSetting: 9×9 {env}, λ = 13, λ̂max = 50, ε = {}, q0 = {}, {} steps, {} seeds.\n",
         if o.env == EnvKind::Robot { " on the robot" } else { "" },
-        paper::EXPLORE_FIG_6.epsilon,
-        paper::EXPLORE_FIG_6.q0,
+        mmq.cfg.learner.params.epsilon,
+        mmq.cfg.learner.params.q0,
         o.steps,
         o.seeds
     );
@@ -575,22 +586,23 @@ fn horizon(
     stop: &AtomicBool,
     prog: &dyn Progress,
 ) -> Result<(), ReportError> {
-    let groups = run(paper::horizon_configs(o), "horizon", stop, prog)?;
+    let groups = run(paper::horizon_configs(o)?, "horizon", stop, prog)?;
     let curve = groups[0].relative_curve();
+    let factor = groups[0].cfg.steps / o.steps.max(1);
     let _ = writeln!(
         rep.md,
         "\n## Relative performance depends on the horizon\n\n\
          Fig. 6's MMQ setting (9×9 grid, λ = 13, ε = {}, q0 = {}, {} seeds) run for {} × its {} steps. Relative \
          performance at horizon T is cumulative earned reward up to T ÷ that of undelayed Q-learning up to T; the \
          baseline is itself still learning, so the ratio moves with T. Every headline number states its horizon.\n",
-        paper::EXPLORE_FIG_6.epsilon,
-        paper::EXPLORE_FIG_6.q0,
+        groups[0].cfg.learner.params.epsilon,
+        groups[0].cfg.learner.params.q0,
         groups[0].cfg.seeds,
-        paper::HORIZON_FACTOR,
+        factor,
         o.steps
     );
     let mut t = String::from("| horizon (steps) | MMQ relative performance |\n|---|---|\n");
-    for k in 1..=paper::HORIZON_FACTOR {
+    for k in 1..=factor {
         let at = o.steps * k;
         if let Some((step, m)) = curve.iter().rev().find(|(s, _)| *s <= at) {
             let _ = writeln!(t, "| {step} | {} |", pct(m));
