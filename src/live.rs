@@ -1,25 +1,14 @@
 //! `--live` of `mmq run` and `--serve` of `mmq replay`: the flags → an address and a
 //! server of `mmq_log::live`; the first seed of a run is the one shown.
 
-use std::path::{Path, PathBuf};
-use std::sync::Mutex;
+use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use mmq_core::Observer;
-use mmq_lab::{LabError, RunConfig};
-use mmq_log::{LiveConfig, LiveServer, LiveTap, McapRecorder, RecorderConfig};
+use mmq_lab::RunConfig;
+use mmq_lab::record::LiveRun;
+use mmq_log::LiveConfig;
 
 use crate::Failure;
-
-/// A running live view and the tap of the seed it shows.
-pub struct Live {
-    server: LiveServer,
-    tap: Mutex<Option<LiveTap>>,
-    seed: u64,
-    pose_rate_hz: f64,
-    cfg: RunConfig,
-    out: PathBuf,
-}
 
 /// The address flag as a live configuration; a bad address is bad input (exit 3).
 fn config(flag: &str, addr: &str, speed: f64, name: String) -> Result<LiveConfig, Failure> {
@@ -39,50 +28,16 @@ pub fn start(
     pose_rate_hz: f64,
     cfg: &RunConfig,
     out: &Path,
-) -> Result<Option<Live>, Failure> {
+) -> Result<Option<LiveRun>, Failure> {
     let Some(addr) = addr else { return Ok(None) };
-    let c = config(
-        "--live",
-        addr,
-        speed,
-        format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display()),
-    )?;
-    let server = LiveServer::start(&c)?;
+    let name = format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display());
+    let live = LiveRun::start(&config("--live", addr, speed, name)?, cfg, out, pose_rate_hz)?;
     eprintln!(
         "live view: ws://{} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {}",
-        server.addr(),
+        live.addr(),
         cfg.seed
     );
-    let tap = Mutex::new(Some(server.tap()));
-    Ok(Some(Live { server, tap, seed: cfg.seed, pose_rate_hz, cfg: cfg.clone(), out: out.to_path_buf() }))
-}
-
-impl Live {
-    /// The observer of `seed` when it is the seed shown: its recorder (if the run
-    /// records) with the live view attached, or a live-only recorder.
-    pub fn observer(&self, seed: u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> {
-        if seed != self.seed {
-            return Ok(None);
-        }
-        let Some(tap) = self.tap.lock().ok().and_then(|mut t| t.take()) else { return Ok(None) };
-        let path = mmq_lab::record::trajectory_path(&self.out, seed);
-        let rec = match mmq_lab::record::recorder_config(&self.cfg, path.clone()) {
-            Some(rc) => McapRecorder::create(rc)
-                .map_err(|e| LabError::Io { path, source: std::io::Error::other(e.to_string()) })?
-                .with_live(tap),
-            None => {
-                let mut rc = RecorderConfig::new(PathBuf::new());
-                rc.pose_rate_hz = self.pose_rate_hz;
-                McapRecorder::live_only(rc, tap)
-            }
-        };
-        Ok(Some(Box::new(rec)))
-    }
-
-    /// Stops the server (clients are told, the port is freed).
-    pub fn stop(self) {
-        self.server.stop();
-    }
+    Ok(Some(live))
 }
 
 /// `mmq replay FILE --serve [ADDR]`: plays the file until Ctrl-C.

@@ -85,7 +85,7 @@ fn main() -> ExitCode {
         Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            let text = one_line(&f.error);
+            let text = mmq_report::terminal::one_line(f.error.chain().map(ToString::to_string));
             let text = if names_fields(&f.error) { mmq_lab::fields::as_flags(&text) } else { text };
             eprintln!("error: {text}");
             ExitCode::from(f.code)
@@ -130,39 +130,10 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
 /// Whether the error is a library's complaint about run-configuration fields (which it
 /// names in backticks, and the command line shows as the flags that set them).
 fn names_fields(e: &anyhow::Error) -> bool {
-    use mmq_lab::LabError;
-    use mmq_learn::LearnError;
-    let lab = e.downcast_ref::<LabError>().or(match e.downcast_ref::<mmq_report::ReportError>() {
-        Some(mmq_report::ReportError::Lab(l)) => Some(l),
-        _ => None,
-    });
-    let learn = e.downcast_ref::<LearnError>().or(match lab {
-        Some(LabError::Learner(l)) => Some(l),
-        _ => None,
-    });
-    matches!(lab, Some(LabError::InvalidParam { .. } | LabError::EnvBuild(_)))
-        || matches!(learn, Some(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. }))
-}
-
-/// An error and its causes on one line, each said once (a message that already quotes its
-/// cause, as most I/O errors here do, is not followed by it again), with control
-/// characters escaped so that a name from a file cannot drive the terminal.
-fn one_line(e: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in e.chain() {
-        let c = cause.to_string();
-        if text.contains(&c) {
-            continue;
-        }
-        if !text.is_empty() {
-            text.push_str(": ");
-        }
-        text.push_str(&c);
-    }
-    text.chars()
-        .flat_map(|c| {
-            let escaped: Vec<char> = if c.is_control() { c.escape_debug().collect() } else { vec![c] };
-            escaped
-        })
-        .collect()
+    let learn = |l: &mmq_learn::LearnError| mmq_lab::LabError::Learner(l.clone()).names_fields();
+    e.downcast_ref::<mmq_lab::LabError>()
+        .map(mmq_lab::LabError::names_fields)
+        .or(e.downcast_ref::<mmq_report::ReportError>().map(mmq_report::ReportError::names_fields))
+        .or(e.downcast_ref::<mmq_learn::LearnError>().map(learn))
+        .unwrap_or(false)
 }

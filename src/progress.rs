@@ -5,10 +5,10 @@
 
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
+use mmq_report::terminal::LineProgress;
 
 /// Seconds between two plain progress lines.
 const LINE_EVERY: Duration = Duration::from_secs(5);
@@ -16,7 +16,6 @@ const LINE_EVERY: Duration = Duration::from_secs(5);
 /// Progress over a number of decision steps.
 #[derive(Debug)]
 pub struct Progress {
-    label: String,
     mode: Mode,
 }
 
@@ -24,7 +23,7 @@ pub struct Progress {
 enum Mode {
     Hidden,
     Bar(ProgressBar),
-    Lines { start: Instant, done: AtomicU64, total: AtomicU64, last: Mutex<Instant> },
+    Lines(LineProgress),
 }
 
 /// Progress over `total` steps: a bar on a terminal, plain lines otherwise, nothing when
@@ -43,15 +42,9 @@ pub fn bar(total: u64, label: &str, quiet: bool) -> Progress {
         pb.set_message(label.to_string());
         Mode::Bar(pb)
     } else {
-        let now = Instant::now();
-        Mode::Lines {
-            start: now,
-            done: AtomicU64::new(0),
-            total: AtomicU64::new(total),
-            last: Mutex::new(now),
-        }
+        Mode::Lines(LineProgress::new(label, total, LINE_EVERY))
     };
-    Progress { label: label.to_string(), mode }
+    Progress { mode }
 }
 
 impl Progress {
@@ -60,31 +53,10 @@ impl Progress {
         match &self.mode {
             Mode::Hidden => {}
             Mode::Bar(pb) => pb.inc(n),
-            Mode::Lines { start, done, total, last } => {
-                let d = done.fetch_add(n, Ordering::Relaxed) + n;
-                let Ok(mut last) = last.try_lock() else { return };
-                if last.elapsed() < LINE_EVERY {
-                    return;
+            Mode::Lines(p) => {
+                if let Some(line) = p.inc(n) {
+                    eprintln!("{line}");
                 }
-                *last = Instant::now();
-                let total = total.load(Ordering::Relaxed);
-                let secs = start.elapsed().as_secs_f64().max(1e-9);
-                let rate = d as f64 / secs;
-                let left = if total > d && rate > 0.0 {
-                    format!(", about {} left", duration((total - d) as f64 / rate))
-                } else {
-                    String::new()
-                };
-                let pct = if total > 0 {
-                    format!(" ({:.0} %)", 100.0 * d as f64 / total as f64)
-                } else {
-                    String::new()
-                };
-                eprintln!(
-                    "{}: {d} of {total} steps{pct}, {rate:.0} steps/s, {} elapsed{left}",
-                    self.label,
-                    duration(secs)
-                );
             }
         }
     }
@@ -94,7 +66,7 @@ impl Progress {
         match &self.mode {
             Mode::Hidden => {}
             Mode::Bar(pb) => pb.set_length(total),
-            Mode::Lines { total: t, .. } => t.store(total, Ordering::Relaxed),
+            Mode::Lines(p) => p.set_length(total),
         }
     }
 
@@ -111,16 +83,7 @@ impl Progress {
         match &self.mode {
             Mode::Hidden => {}
             Mode::Bar(pb) => pb.finish_and_clear(),
-            Mode::Lines { start, done, total, .. } => {
-                let (d, secs) = (done.load(Ordering::Relaxed), start.elapsed().as_secs_f64().max(1e-9));
-                eprintln!(
-                    "{}: {d} of {} steps in {}, {:.0} steps/s",
-                    self.label,
-                    total.load(Ordering::Relaxed),
-                    duration(secs),
-                    d as f64 / secs
-                );
-            }
+            Mode::Lines(p) => eprintln!("{}", p.finish()),
         }
     }
 }
@@ -165,27 +128,5 @@ impl mmq_report::Progress for Bars {
         if !self.quiet {
             eprintln!("{text}");
         }
-    }
-}
-
-/// A duration as "1 h 02 min", "3 min 05 s" or "42 s".
-fn duration(secs: f64) -> String {
-    let s = secs.round() as u64;
-    match s {
-        0..60 => format!("{s} s"),
-        60..3600 => format!("{} min {:02} s", s / 60, s % 60),
-        _ => format!("{} h {:02} min", s / 3600, (s % 3600) / 60),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::duration;
-
-    #[test]
-    fn durations_read_as_text() {
-        assert_eq!(duration(42.4), "42 s");
-        assert_eq!(duration(185.0), "3 min 05 s");
-        assert_eq!(duration(3720.0), "1 h 02 min");
     }
 }

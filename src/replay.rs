@@ -73,25 +73,13 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
                 ),
             });
         }
-        match verify(&log, &scratch, stop)? {
-            Verdict::Identical { decisions, poses, steps, truncated } => {
-                let held = if truncated {
-                    format!(
-                        "; the file holds only the first {steps} steps of its run, and those were checked"
-                    )
-                } else {
-                    String::new()
-                };
-                println!(
-                    "verify: OK: the re-run matches the log bit for bit ({decisions} decisions, {poses} poses{held})"
-                );
-            }
-            Verdict::Differs(m) => {
-                return Err(Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("verify: {m}") });
-            }
-            Verdict::Interrupted { steps } => {
-                // Exit 130 (the stop flag is up): nothing concluded.
-                eprintln!("verify: interrupted after re-running {steps} steps; nothing concluded");
+        let v = verify(&log, &scratch, stop)?;
+        match mmq_report::terminal::verdict(&v) {
+            // Exit 130 (the stop flag is up): nothing concluded.
+            (text, _) if matches!(v, Verdict::Interrupted { .. }) => eprintln!("{text}"),
+            (text, true) => println!("{text}"),
+            (text, false) => {
+                return Err(Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("{text}") });
             }
         }
     }

@@ -5,8 +5,8 @@
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::EnvKind;
-use mmq_lab::output::{OutKind, claim_out_dir, write_config, write_results};
-use mmq_lab::{Control, RunConfig, run_all};
+use mmq_lab::output::run_into;
+use mmq_lab::{Control, RunConfig};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 
 use crate::cli::{EnvArg, RunArgs};
@@ -55,52 +55,36 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     // Before anything is written: a bad address or a port in use stops here.
     let live =
         crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
-    let replaced = claim_out_dir(&a.out, OutKind::Run)?;
-    if replaced > 0 && !a.quiet {
-        eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
-    }
-    write_config(&a.out, &cfg)?;
     let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
     let pb = progress::bar(total, cfg.learner.kind.name(), a.quiet);
     let progress = |n: u64| pb.inc(n);
     let ctl = Control { stop, progress: &progress };
-    let recorders = mmq_lab::record::recorder_factory(&cfg, &a.out);
-    let factory = |seed| match live.as_ref().and_then(|l| l.observer(seed).transpose()) {
-        Some(o) => o.map(Some),
-        None => recorders(seed),
+    let claimed = |replaced: usize| {
+        if replaced > 0 && !a.quiet {
+            eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
+        }
     };
-    let outcome = run_all(&cfg, &world, &factory, ctl);
+    let observers = mmq_lab::record::observers(&cfg, &a.out, live.as_ref());
+    let written = run_into(&a.out, &cfg, &world, &observers, ctl, &claimed);
+    drop(observers);
     if let Some(l) = live {
         l.stop();
     }
-    let outcome = outcome?;
     pb.finish_and_clear();
-    let (summary, _files) = write_results(&a.out, &cfg, &world, &outcome.results, !outcome.interrupted)?;
-    print!("{}", mmq_report::text::run_summary(&summary));
-    let failures = outcome.failures();
-    if !failures.is_empty() {
-        // The summary says incomplete; the exit code and one message per lost file say why.
-        return Err(Failure {
-            code: crate::exit::RUNTIME,
-            error: anyhow::anyhow!(
-                "{}; the summary in {} marks the run incomplete",
-                failures.join("; "),
-                a.out.display()
-            ),
-        });
-    }
-    if !outcome.interrupted {
-        // A stop that came while the finished run's outputs were written changed nothing:
-        // the summary says complete, so the exit code says success, not 130.
-        stop.store(false, std::sync::atomic::Ordering::SeqCst);
-    }
-    if outcome.interrupted {
+    let written = written?;
+    print!("{}", mmq_report::text::run_summary(&written.summary));
+    // The summary says incomplete; the exit code and one message per lost file say why.
+    written.check(&a.out)?;
+    if written.interrupted {
         eprintln!(
             "interrupted: wrote the {} finished seed(s) to {}, marked partial",
-            summary.mean.get("steps").map_or(0, |m| m.n),
+            written.summary.mean.get("steps").map_or(0, |m| m.n),
             a.out.display()
         );
     } else {
+        // A stop that came while the finished run's outputs were written changed nothing:
+        // the summary says complete, so the exit code says success, not 130.
+        stop.store(false, std::sync::atomic::Ordering::SeqCst);
         println!("wrote {}", a.out.display());
     }
     Ok(())

@@ -1,6 +1,6 @@
 //! `mmq world list|check|show`.
 
-use mmq_core::{World, optimum};
+use mmq_core::World;
 use mmq_lab::runner::robot_env;
 
 use crate::Failure;
@@ -10,17 +10,7 @@ use crate::cli::{WorldAction, WorldArgs};
 pub fn world(args: WorldArgs) -> Result<(), Failure> {
     match args.action {
         WorldAction::List => {
-            println!("shipped worlds (use the name as --world, or copy the file to change it):");
-            for (name, text) in mmq_core::shipped::WORLDS {
-                let w = World::parse(text, name)?;
-                println!(
-                    "  {name:<14} {}×{:<3} optimum {:.4}/step  {}",
-                    w.width,
-                    w.height,
-                    optimum(&w).gain,
-                    w.description
-                );
-            }
+            print!("{}", mmq_report::terminal::shipped_worlds()?);
             Ok(())
         }
         WorldAction::Check { files } => {
@@ -36,18 +26,7 @@ pub fn world(args: WorldArgs) -> Result<(), Failure> {
                     Ok(w)
                 });
                 match checked {
-                    Ok(w) => {
-                        let o = optimum(&w);
-                        println!(
-                            "ok  {}: {} {}×{}, {} free cells, optimum {:.4} reward/step",
-                            f.display(),
-                            w.name,
-                            w.width,
-                            w.height,
-                            w.free_cells().count(),
-                            o.gain
-                        );
-                    }
+                    Ok(w) => println!("{}", mmq_report::terminal::world_ok(&f, &w)),
                     Err(e) => {
                         eprintln!("error: {e}");
                         bad += 1;

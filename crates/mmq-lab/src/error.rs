@@ -59,13 +59,22 @@ pub enum LabError {
     EnvBuild(String),
     /// An output folder that holds files this program did not write.
     #[error(
-        "{path}: the output folder holds {example}, which mmq did not write; choose an empty or new folder for --out"
+        "{path}: the output folder holds {example}, which mmq did not write; choose an empty or new folder for `out`"
     )]
     OutDirInUse {
         /// The folder.
         path: PathBuf,
         /// One of the foreign files.
         example: String,
+    },
+    /// Every seed's results were written, but some seeds lost output they should have
+    /// written (a recording); the summary marks the run incomplete.
+    #[error("{}; the summary in {} marks the run incomplete", lost.join("; "), dir.display())]
+    LostOutput {
+        /// The run's folder.
+        dir: PathBuf,
+        /// One message per seed that lost output.
+        lost: Vec<String>,
     },
     /// Writing an output failed.
     #[error("cannot write {path}: {source}")]
@@ -78,7 +87,20 @@ pub enum LabError {
 }
 
 impl LabError {
-    /// Whether the error comes from user input (exit code 3) rather than the run (1).
+    /// Whether the message names run-configuration fields in backticks (`` `max_delay` ``),
+    /// which a front end shows as its own names for them (`mmq_lab::fields`).
+    pub fn names_fields(&self) -> bool {
+        use mmq_learn::LearnError;
+        matches!(
+            self,
+            LabError::InvalidParam { .. }
+                | LabError::EnvBuild(_)
+                | LabError::OutDirInUse { .. }
+                | LabError::Learner(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. })
+        )
+    }
+
+    /// Whether the error is bad input rather than a failure while running or writing.
     pub fn is_input_error(&self) -> bool {
         matches!(
             self,

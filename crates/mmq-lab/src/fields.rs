@@ -23,6 +23,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("time_bin_s", "--time-bin"),
     ("shard", "--shard"),
     ("save_tables = false", "--no-tables"),
+    ("out", "--out"),
 ];
 
 fn rewrite(text: &str, to: impl Fn(&str, &str) -> String) -> String {

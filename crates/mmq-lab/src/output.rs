@@ -219,6 +219,49 @@ pub fn write_results(
     Ok((summary, files))
 }
 
+/// What [`run_into`] did.
+#[derive(Debug)]
+pub struct RunWritten {
+    /// The summary written last.
+    pub summary: Summary,
+    /// Whether the stop flag cut the run short (the summary then says partial).
+    pub interrupted: bool,
+    /// One message per seed that lost output it should have written (a recording that
+    /// could not be written); the summary then says incomplete. See [`RunWritten::check`].
+    pub lost: Vec<String>,
+}
+
+impl RunWritten {
+    /// An error when a seed lost output: written results are never a complete run
+    /// unless every file of every seed is in place.
+    pub fn check(&self, dir: &Path) -> Result<(), LabError> {
+        if self.lost.is_empty() {
+            Ok(())
+        } else {
+            Err(LabError::LostOutput { dir: dir.to_path_buf(), lost: self.lost.clone() })
+        }
+    }
+}
+
+/// A whole run into `dir`, as `mmq run` and Python's `mmq.run` do it: claims the folder
+/// (`claimed` hears how many files of an earlier run it replaces), writes `config.toml`,
+/// runs every seed with `observers`, then writes the results, the summary last.
+pub fn run_into(
+    dir: &Path,
+    cfg: &RunConfig,
+    world: &World,
+    observers: &crate::runner::ObserverFactory<'_>,
+    ctl: crate::runner::Control<'_>,
+    claimed: &dyn Fn(usize),
+) -> Result<RunWritten, LabError> {
+    claimed(claim_out_dir(dir, OutKind::Run)?);
+    write_config(dir, cfg)?;
+    let outcome = crate::runner::run_all(cfg, world, observers, ctl)?;
+    let lost = outcome.failures().into_iter().map(str::to_string).collect();
+    let (summary, _) = write_results(dir, cfg, world, &outcome.results, !outcome.interrupted)?;
+    Ok(RunWritten { summary, interrupted: outcome.interrupted, lost })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

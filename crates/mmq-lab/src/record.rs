@@ -2,10 +2,11 @@
 //! a configuration asks for it (`RunConfig::record`), and nothing at all otherwise.
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_core::Observer;
-use mmq_log::{McapRecorder, RecorderConfig, StepWindow};
+use mmq_log::{LiveConfig, LiveServer, LiveTap, LogError, McapRecorder, RecorderConfig, StepWindow};
 
 use crate::config::RunConfig;
 use crate::error::LabError;
@@ -43,6 +44,82 @@ pub fn recorder_factory(
     let cfg = cfg.clone();
     let out = out.to_path_buf();
     move |seed| recorder_config(&cfg, trajectory_path(&out, seed)).map(open).transpose()
+}
+
+/// A run served live to the Foxglove app: the server and the tap of the one seed it
+/// shows (the run's first), whose observer also records when the run records.
+pub struct LiveRun {
+    server: LiveServer,
+    tap: Mutex<Option<LiveTap>>,
+    pose_rate_hz: f64,
+    cfg: RunConfig,
+    out: PathBuf,
+}
+
+impl std::fmt::Debug for LiveRun {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LiveRun").field("addr", &self.addr()).field("seed", &self.cfg.seed).finish()
+    }
+}
+
+impl LiveRun {
+    /// Starts the server (a bad address or a port in use fails here, before anything
+    /// runs); `pose_rate_hz` thins the poses shown when the run does not record.
+    pub fn start(
+        c: &LiveConfig,
+        cfg: &RunConfig,
+        out: &Path,
+        pose_rate_hz: f64,
+    ) -> Result<LiveRun, LogError> {
+        let server = LiveServer::start(c)?;
+        let tap = Mutex::new(Some(server.tap()));
+        Ok(LiveRun { server, tap, pose_rate_hz, cfg: cfg.clone(), out: out.to_path_buf() })
+    }
+
+    /// Where clients connect.
+    pub fn addr(&self) -> std::net::SocketAddr {
+        self.server.addr()
+    }
+
+    /// The observer of `seed` when it is the seed shown: its recorder (if the run
+    /// records) with the live view attached, or a live-only recorder.
+    pub fn observer(&self, seed: u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> {
+        if seed != self.cfg.seed {
+            return Ok(None);
+        }
+        let Some(tap) = self.tap.lock().ok().and_then(|mut t| t.take()) else { return Ok(None) };
+        let path = trajectory_path(&self.out, seed);
+        let rec = match recorder_config(&self.cfg, path.clone()) {
+            Some(rc) => McapRecorder::create(rc)
+                .map_err(|e| LabError::Io { path, source: std::io::Error::other(e.to_string()) })?
+                .with_live(tap),
+            None => {
+                let mut rc = RecorderConfig::new(PathBuf::new());
+                rc.pose_rate_hz = self.pose_rate_hz;
+                McapRecorder::live_only(rc, tap)
+            }
+        };
+        Ok(Some(Box::new(rec)))
+    }
+
+    /// Stops the server (clients are told, the port is freed).
+    pub fn stop(self) {
+        self.server.stop();
+    }
+}
+
+/// The observers of a run's seeds for `run_all`: the live view's for the seed it shows,
+/// a recorder in `out` for every other seed when `cfg` records.
+pub fn observers<'a>(
+    cfg: &RunConfig,
+    out: &Path,
+    live: Option<&'a LiveRun>,
+) -> impl Fn(u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> + Sync + use<'a> {
+    let recorders = recorder_factory(cfg, out);
+    move |seed| match live.and_then(|l| l.observer(seed).transpose()) {
+        Some(o) => o.map(Some),
+        None => recorders(seed),
+    }
 }
 
 /// Most decision steps `verify` re-runs (10⁹: minutes to hours of work). A `config.toml`

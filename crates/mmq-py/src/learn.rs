@@ -307,12 +307,11 @@ pub fn run_json(
         let progress = |_: u64| {};
         let ctl = Control { stop: &stop, progress: &progress };
         if let Some(dir) = &out {
-            mmq_lab::output::write_config(dir, &cfg)?;
-            let factory = mmq_lab::record::recorder_factory(&cfg, dir);
-            let outcome = run_all(&cfg, &w, &factory, ctl)?;
-            let (summary, _) =
-                mmq_lab::output::write_results(dir, &cfg, &w, &outcome.results, !outcome.interrupted)?;
-            Ok(serde_json::to_string(&summary).unwrap_or_default())
+            let recorders = mmq_lab::record::recorder_factory(&cfg, dir);
+            let written = mmq_lab::output::run_into(dir, &cfg, &w, &recorders, ctl, &|_| {})?;
+            // A seed that lost a file is an error, never a complete run.
+            written.check(dir)?;
+            Ok(serde_json::to_string(&written.summary).unwrap_or_default())
         } else {
             let none = |_: u64| Ok(None);
             let outcome = run_all(&cfg, &w, &none, ctl)?;

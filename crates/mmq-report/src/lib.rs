@@ -12,6 +12,7 @@
 mod comparison;
 pub mod paper;
 pub mod sweep;
+pub mod terminal;
 pub mod text;
 
 use std::fmt::Write as _;
@@ -48,6 +49,11 @@ impl ReportError {
             ReportError::Plot(_) => false,
             ReportError::UnknownFigure(_) | ReportError::NoSweep => true,
         }
+    }
+
+    /// Whether the message names run-configuration fields (see [`LabError::names_fields`]).
+    pub fn names_fields(&self) -> bool {
+        matches!(self, ReportError::Lab(e) if e.names_fields())
     }
 }
 
