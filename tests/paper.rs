@@ -184,3 +184,54 @@ fn fig6_from_the_paper_and_from_its_sweep_spec_agree() {
     }
     assert_eq!(compared, 2 * steps / window);
 }
+
+/// The learner comparison reports, beside relative performance, the fraction of the
+/// ε-soft ceiling and the regret, and both agree with the fraction of the optimum:
+/// regret = optimum × steps × (1 − fraction), and ceiling fraction ÷ fraction =
+/// optimum ÷ ceiling, one ratio above 1 for every learner of a world and ε.
+#[test]
+fn the_learner_comparison_reports_the_ceiling_and_the_regret() {
+    let steps = 600.0;
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("comparison");
+    let o = Command::new(env!("CARGO_BIN_EXE_mmq"))
+        .args(["paper", "--quick", "--fig", "beyond", "--steps", "600", "--seeds", "1", "-q", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(out.join("beyond.csv")).unwrap();
+    let mut lines = text.lines();
+    let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let mut ratios: HashMap<(String, String), Vec<f64>> = HashMap::new();
+    let mut checked = 0;
+    // Rows whose delay spec holds commas are quoted; the others split on commas.
+    for row in lines.filter(|l| !l.contains('"')) {
+        let r: HashMap<&str, &str> = head.iter().copied().zip(row.split(',')).collect();
+        let optimum = match r["world"] {
+            "paper-9x9" => 10.0 / 17.0,
+            "maze-15x15" => 10.0 / 33.0,
+            w => panic!("unexpected world {w}"),
+        };
+        let num = |k: &str| -> f64 { r[k].parse().unwrap_or_else(|_| panic!("{k} = {:?} in {row}", r[k])) };
+        let (fraction, ceiling, regret) = (num("fraction"), num("ceiling_fraction"), num("regret"));
+        let expected = optimum * steps * (1.0 - fraction);
+        assert!(
+            (regret - expected).abs() < 1e-6 * expected.abs().max(1.0),
+            "{row}: regret {regret}, {expected}"
+        );
+        if fraction.abs() > 1e-3 {
+            ratios
+                .entry((r["world"].to_string(), r["epsilon"].to_string()))
+                .or_default()
+                .push(ceiling / fraction);
+        }
+        checked += 1;
+    }
+    assert!(checked > 200, "only {checked} rows");
+    for ((world, eps), rs) in &ratios {
+        assert!(rs.iter().all(|x| (x - rs[0]).abs() < 1e-9 && *x > 1.0), "{world} ε {eps}: {rs:?}");
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(report.contains("| fraction of the ε-soft ceiling | regret (reward) |"), "{report}");
+}

@@ -226,6 +226,13 @@ pub struct Outcome {
     pub relative: MeanCi,
     /// Earned reward per step ÷ the exact optimum.
     pub fraction: MeanCi,
+    /// Earned reward per step ÷ the ε-soft ceiling (the best any policy exploring with
+    /// this ε earns): how close to the limit of its exploration a learner came.
+    #[serde(default)]
+    pub ceiling: Option<MeanCi>,
+    /// Regret against the optimum: optimum × steps − earned reward, in reward units.
+    #[serde(default)]
+    pub regret: Option<MeanCi>,
     /// Greedy evaluation, reward per step from S.
     pub greedy: MeanCi,
     /// Worst seed's greedy evaluation.
@@ -319,6 +326,8 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         n: rs.len(),
         relative: g.relative(),
         fraction: g.fraction(optimum),
+        ceiling: crate::summary::ceiling_per_step(&g.cfg, world).map(|c| g.fraction_of_ceiling(c)),
+        regret: Some(g.regret(optimum)),
         greedy: mean_ci(&greedy),
         greedy_min: greedy.iter().copied().fold(f64::INFINITY, f64::min),
         greedy_optimal: greedy.iter().filter(|&&x| x >= best - 1e-9).count(),
@@ -335,14 +344,14 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
 /// One CSV row per setting.
 pub fn outcomes_csv(outs: &[Outcome]) -> String {
     let mut s = String::from(
-        "world,delay,epsilon,learner,told,n,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,greedy_min,greedy_optimal_seeds,median_est_final,median_est_final_ci95,median_error_max_at_50k,lobe_low,lobe_high,seconds_per_seed,probes_per_seed\n",
+        "world,delay,epsilon,learner,told,n,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,greedy_min,greedy_optimal_seeds,median_est_final,median_est_final_ci95,median_error_max_at_50k,lobe_low,lobe_high,seconds_per_seed,probes_per_seed,ceiling_fraction,ceiling_fraction_ci95,regret,regret_ci95\n",
     );
     for o in outs {
         let st = &o.setting;
         let last = o.median_curve.last().map(|x| x.1);
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             csv_field(&st.world),
             csv_field(&st.delay),
             st.epsilon,
@@ -363,7 +372,11 @@ pub fn outcomes_csv(outs: &[Outcome]) -> String {
             o.lobes.map_or(String::new(), |l| l.0.mean.to_string()),
             o.lobes.map_or(String::new(), |l| l.1.mean.to_string()),
             o.seconds.mean,
-            o.probes.map_or(String::new(), |p| p.mean.to_string())
+            o.probes.map_or(String::new(), |p| p.mean.to_string()),
+            o.ceiling.map_or(String::new(), |c| c.mean.to_string()),
+            o.ceiling.map_or(String::new(), |c| c.ci95.to_string()),
+            o.regret.map_or(String::new(), |r| r.mean.to_string()),
+            o.regret.map_or(String::new(), |r| r.ci95.to_string())
         );
     }
     s
@@ -430,6 +443,8 @@ mod tests {
             n: 1,
             relative: m(1.0),
             fraction: m(0.9),
+            ceiling: Some(m(0.91)),
+            regret: Some(m(100.0)),
             greedy: m(0.58),
             greedy_min: 0.58,
             greedy_optimal: 1,
