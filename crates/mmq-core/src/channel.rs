@@ -3,7 +3,7 @@
 //! of order and overlapping, the paper's setting).
 //!
 //! A delay in seconds ([`DelayDist::Seconds`]) counts simulated time instead: a reward
-//! emitted at the end of a step, at time t_e = `Env::sim_time_s()`, with delay d seconds is
+//! emitted at the end of a step, at time t_e = `Telemetry::sim_time_s()`, with delay d seconds is
 //! delivered with the first decision that *ends* at or after t_e + d (times compared to
 //! the nanosecond), summed with whatever else is due, exactly like step delays. A delay
 //! of 0 s is delivered at once, like a delay of 0 steps.
@@ -18,7 +18,7 @@ use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
 use crate::delay::{DelayDist, DelaySampler, SecondsSampler};
-use crate::env::{Action, Env, EnvError, Start, State, Step, StepTrace};
+use crate::env::{Action, Env, EnvError, Start, State, Step, StepTrace, Telemetry};
 use crate::observer::{Resume, StepRecord};
 use crate::seed::{Rng, rng_from_seed};
 
@@ -230,7 +230,7 @@ pub struct DelayedReward<E> {
     stats: DelayStats,
 }
 
-impl<E: Env> DelayedReward<E> {
+impl<E: Env + Telemetry> DelayedReward<E> {
     /// Wraps `env`; `ledger` keeps the ground truth of every emission.
     pub fn new(env: E, dist: &DelayDist, ledger: bool) -> Self {
         let seconds = dist.as_seconds().map(|d| SecondsChannel {
@@ -532,10 +532,7 @@ impl<E: Env> DelayedReward<E> {
         explored: bool,
         st: &DelayedStep,
         trace: &'a StepTrace,
-    ) -> StepRecord<'a>
-    where
-        E: Env,
-    {
+    ) -> StepRecord<'a> {
         StepRecord {
             t: st.t,
             state,
@@ -601,6 +598,9 @@ mod tests {
             self.t += 1;
             Ok(Step { state: 0, reward: r, event: Event::Moved, terminated: false, truncated: false })
         }
+    }
+
+    impl Telemetry for Script {
         fn sim_time_s(&self) -> f64 {
             self.t as f64
         }

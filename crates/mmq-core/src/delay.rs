@@ -27,7 +27,7 @@
 //!
 //! A mixture is all in steps or all in seconds. A reward delayed by d seconds is delivered
 //! with the first decision that ends at or after its emission time + d
-//! ([`crate::channel::DelayedReward`]); the environment's clock is `Env::sim_time_s` (the
+//! ([`crate::channel::DelayedReward`]); the environment's clock is `Telemetry::sim_time_s` (the
 //! robot's physics; the grid's nominal `step_period_s` per step).
 
 use std::fmt;

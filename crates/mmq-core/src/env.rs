@@ -1,4 +1,5 @@
-//! The environment interface shared by the grid world and the robot.
+//! The environment interface shared by the grid world and the robot: [`Env`], the MDP,
+//! and [`Telemetry`], what loggers and reports read besides it.
 //!
 //! The task is continuing, as in the paper: `step` reports `terminated` and `truncated`
 //! separately (Gymnasium's convention), and both stay false for the worlds of mmq; an
@@ -202,6 +203,15 @@ pub trait Env {
     fn reset(&mut self, seed: u64, start: Start) -> Result<State, EnvError>;
     /// Takes one action.
     fn step(&mut self, action: Action) -> Result<Step, EnvError>;
+}
+
+/// What an environment tells loggers and reports besides the MDP: simulated time,
+/// poses, the continuous-time trace of a step and summary figures. Learners never see
+/// it. The delay channel reads the clock (delays in seconds); the runner reads the rest
+/// for its summaries and hands it to observers (the MCAP recorder, the live view). An
+/// environment without continuous time gives a nominal clock and a pose at its cell and
+/// keeps the defaults.
+pub trait Telemetry {
     /// Simulated time since reset, seconds (grid: a nominal period per step).
     fn sim_time_s(&self) -> f64;
     /// Asks for pose samples every `period_s` seconds of simulated time during each

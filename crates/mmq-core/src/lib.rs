@@ -20,7 +20,9 @@ pub mod world;
 pub use ceiling::{Ceiling, epsilon_soft_ceiling};
 pub use channel::{DelayStats, DelayedReward, DelayedStep, Emission, Ledger};
 pub use delay::{DelayDist, DelayError, DelaySampler, DelayUnit, SecondsDist, SecondsSampler};
-pub use env::{Action, ContactSample, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace};
+pub use env::{
+    Action, ContactSample, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace, Telemetry,
+};
 pub use observer::{Observer, Resume, RunInfo, StepGate, StepRecord};
 pub use optimum::{Optimum, optimum};
 pub use seed::{Rng, SeedTree, Stream};

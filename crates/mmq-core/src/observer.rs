@@ -74,7 +74,7 @@ pub struct RunInfo<'a> {
     /// Extra key/value facts (versions, physics features, dt).
     pub facts: &'a [(String, String)],
     /// The agent's pose after the reset, where the environment has a continuous one
-    /// (the robot: position and heading, [`crate::Env::pose`]); `None` for the grid,
+    /// (the robot: position and heading, [`crate::Telemetry::pose`]); `None` for the grid,
     /// whose pose is the start cell's centre.
     pub start_pose: Option<PoseSample>,
 }

@@ -2,6 +2,7 @@
 //! against hand-computed delivery schedules, conservation at every step, the ledger's
 //! delays, and step specs drawing exactly as before.
 
+use mmq_core::Telemetry;
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{
     Action, DelayDist, DelayUnit, DelayedReward, Emission, Env, EnvError, Event, PoseSample, SecondsDist,
@@ -49,6 +50,9 @@ impl Env for Script {
         self.t += 1;
         Ok(Step { state: 0, reward: r, event: Event::Moved, terminated: false, truncated: false })
     }
+}
+
+impl Telemetry for Script {
     fn sim_time_s(&self) -> f64 {
         self.time
     }
@@ -242,6 +246,8 @@ fn due_times_on_a_product_clock_are_not_late() {
         fn step(&mut self, a: Action) -> Result<Step, EnvError> {
             self.0.step(a)
         }
+    }
+    impl Telemetry for Clock {
         fn sim_time_s(&self) -> f64 {
             self.0.t as f64 * 0.1
         }

@@ -7,7 +7,9 @@
 //!
 //! Architecture invariant: this crate knows no learner, no physics and no log format.
 
-use mmq_core::{Action, Env, EnvError, Event, Move, PoseSample, Start, StartRule, State, Step, World};
+use mmq_core::{
+    Action, Env, EnvError, Event, Move, PoseSample, Start, StartRule, State, Step, Telemetry, World,
+};
 use rand::RngExt;
 
 /// Nominal duration of one grid step when the world does not set `step_period_s`,
@@ -88,7 +90,9 @@ impl Env for GridEnv {
         self.t += 1;
         Ok(Step { state: self.state, reward, event, terminated: false, truncated: false })
     }
+}
 
+impl Telemetry for GridEnv {
     /// t × the world's `step_period_s`.
     fn sim_time_s(&self) -> f64 {
         self.t as f64 * self.world.step_period_s

@@ -15,14 +15,16 @@ use std::path::PathBuf;
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
+use mmq_learn::DelayEstimate;
 use mmq_learn::beyond::BeyondParams;
-use mmq_learn::deconv::{SNAPSHOT_EVERY, pmf_mean, pmf_median, truncated_pmf};
+use mmq_learn::deconv::{pmf_mean, pmf_median, truncated_pmf};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::paper::Group;
+use crate::runner::DIAGNOSTICS_EVERY;
 use crate::sweep::csv_field;
 
 /// Every learner of the study, in report order.
@@ -276,19 +278,22 @@ pub fn optimal_greedy_score(world: &World, eval_steps: u64) -> f64 {
     goal * (eval_steps as f64 / cycle).floor() / eval_steps as f64
 }
 
+/// A seed's delay estimate after `t` steps (sampled by the runner), if it has one.
+fn delay_at(r: &crate::SeedResult, t: u64) -> Option<&DelayEstimate> {
+    r.run.diagnostics.iter().find(|s| s.step == t).and_then(|s| s.diagnostics.delay.as_ref())
+}
+
 /// Summarises a group run by `run_groups` for `setting`.
 pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, LabError> {
     let optimum = mmq_core::optimum(world).gain;
     let best = optimal_greedy_score(world, g.cfg.eval_steps);
     let rs = &g.results;
     let greedy: Vec<f64> = rs.iter().map(|r| r.greedy_per_step).collect();
-    let metric =
-        |r: &crate::SeedResult, key: &str| r.learner_metrics.iter().find(|m| m.0 == key).map(|m| m.1);
-    let curve = |prefix: &str| -> Vec<(u64, MeanCi)> {
-        (1..=g.cfg.steps / SNAPSHOT_EVERY)
+    let curve = |field: fn(&DelayEstimate) -> f64| -> Vec<(u64, MeanCi)> {
+        (1..=g.cfg.steps / DIAGNOSTICS_EVERY)
             .filter_map(|i| {
-                let t = i * SNAPSHOT_EVERY;
-                let xs: Vec<f64> = rs.iter().filter_map(|r| metric(r, &format!("{prefix}@{t}"))).collect();
+                let t = i * DIAGNOSTICS_EVERY;
+                let xs: Vec<f64> = rs.iter().filter_map(|r| delay_at(r, t).map(field)).collect();
                 (!xs.is_empty()).then(|| (t, mean_ci(&xs)))
             })
             .collect()
@@ -298,7 +303,8 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
     let pmfs: Vec<Vec<f64>> = rs
         .iter()
         .filter_map(|r| {
-            (0..=50).map(|k| metric(r, &format!("delay/pmf/{k:03}"))).collect::<Option<Vec<f64>>>()
+            let p = &r.diagnostics.delay.as_ref()?.pmf;
+            p.get(..=50).map(<[f64]>::to_vec)
         })
         .collect();
     let pmf = if pmfs.is_empty() {
@@ -309,8 +315,8 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
     let median_error_max = estimates
         .then(|| {
             rs.iter()
-                .filter_map(|r| metric(r, &format!("delay/median_est@{JUDGE_AT}")))
-                .map(|m| (m - true_median).abs())
+                .filter_map(|r| delay_at(r, JUDGE_AT))
+                .map(|d| (d.median - true_median).abs())
                 .reduce(f64::max)
         })
         .flatten();
@@ -320,7 +326,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         (mean_ci(&lo), mean_ci(&hi))
     });
     let _ = true_pmf;
-    let probes: Option<Vec<f64>> = rs.iter().map(|r| metric(r, "learner/probes")).collect();
+    let probes: Option<Vec<f64>> = rs.iter().map(|r| r.diagnostics.figure("learner/probes")).collect();
     Ok(Outcome {
         setting: setting.clone(),
         n: rs.len(),
@@ -332,8 +338,8 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         greedy_min: greedy.iter().copied().fold(f64::INFINITY, f64::min),
         greedy_optimal: greedy.iter().filter(|&&x| x >= best - 1e-9).count(),
         seconds: mean_ci(&rs.iter().map(|r| r.wall_time_s).collect::<Vec<_>>()),
-        median_curve: if estimates { curve("delay/median_est") } else { Vec::new() },
-        mean_curve: if estimates { curve("delay/mean_est") } else { Vec::new() },
+        median_curve: if estimates { curve(|d| d.median) } else { Vec::new() },
+        mean_curve: if estimates { curve(|d| d.mean) } else { Vec::new() },
         pmf,
         median_error_max,
         lobes,

@@ -96,7 +96,7 @@ pub fn write_summary(dir: &Path, s: &Summary) -> Result<PathBuf, LabError> {
 pub const METRICS_COLUMNS: &str = "seed,step,reward/earned,reward/received,reward/earned_cum,reward/received_cum,baseline/earned_cum,perf/relative";
 
 /// Learning curves of every seed, one row per window. Environments with summary figures
-/// (the robot's `Env::stats`) add one column per figure, `env/<name>`, holding the
+/// (the robot's `Telemetry::stats`) add one column per figure, `env/<name>`, holding the
 /// seed's value for the whole run on each of its rows.
 pub fn metrics_csv(results: &[SeedResult]) -> String {
     let mut out = String::from(METRICS_COLUMNS);

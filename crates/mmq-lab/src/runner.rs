@@ -7,11 +7,11 @@ use std::time::Instant;
 
 use mmq_core::{
     DelayDist, DelayedReward, Env, Event, Move, Observer, Optimum, RunInfo, SeedTree, Start, StepGate,
-    StepTrace, Stream, World,
+    StepTrace, Stream, Telemetry, World,
 };
 use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
-use mmq_learn::{Experience, Learner, LearnerSpec, Table, Truth};
+use mmq_learn::{Diagnostics, Experience, Learner, LearnerSpec, Table, Truth};
 use mmq_robot::{RobotConfig, RobotEnv};
 use serde::{Deserialize, Serialize};
 
@@ -39,6 +39,19 @@ pub type ObserverFactory<'a> = dyn Fn(u64) -> Result<Option<Box<dyn Observer + S
 
 /// Progress is reported every this many steps.
 const CHECK_EVERY: u64 = 1024;
+
+/// Steps between two samples of the learner's diagnostics during learning.
+pub const DIAGNOSTICS_EVERY: u64 = 10_000;
+
+/// The learner's diagnostics after `step` steps of learning (sampled right after the
+/// learner observed its `step`-th step).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiagnosticsSample {
+    /// Steps learned from.
+    pub step: u64,
+    /// What the learner reported then.
+    pub diagnostics: Diagnostics,
+}
 
 /// One row of a learning curve: totals over the window ending at `step`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -74,6 +87,9 @@ pub struct Trajectory {
     pub delays: mmq_core::channel::DelayStats,
     /// Simulated time at the end of the last step, seconds.
     pub sim_time_s: f64,
+    /// The learner's diagnostics every [`DIAGNOSTICS_EVERY`] steps (none for a learner
+    /// that reports none).
+    pub diagnostics: Vec<DiagnosticsSample>,
 }
 
 /// The result of one seed.
@@ -95,8 +111,9 @@ pub struct SeedResult {
     pub policy_probs: Vec<Vec<f64>>,
     /// max_a of the acting values per state (for value maps).
     pub values: Vec<f64>,
-    /// Learner-specific figures.
-    pub learner_metrics: Vec<(String, f64)>,
+    /// The learner's diagnostics at the end of learning (its time series is in
+    /// [`Trajectory::diagnostics`] of `run`).
+    pub diagnostics: Diagnostics,
     /// Environment figures (robot physics).
     pub env_stats: Vec<(String, f64)>,
     /// The learner's tables (when asked for).
@@ -230,7 +247,7 @@ pub(crate) fn run_seed_as(
 }
 
 /// [`run_seed_as`] on environments made by `make`.
-pub fn run_seed_on<E: Env>(
+pub fn run_seed_on<E: Env + Telemetry>(
     cfg: &RunConfig,
     world: &World,
     dist: &DelayDist,
@@ -296,7 +313,7 @@ pub fn run_seed_on<E: Env>(
         policy_arrows,
         policy_probs,
         values,
-        learner_metrics: learner.metrics(),
+        diagnostics: learner.diagnostics(),
         env_stats,
         tables: if cfg.save_tables { learner.tables() } else { Vec::new() },
         baseline,
@@ -309,7 +326,7 @@ pub fn run_seed_on<E: Env>(
 
 /// The learning loop of one trajectory.
 #[allow(clippy::too_many_arguments)]
-fn learn<E: Env>(
+fn learn<E: Env + Telemetry>(
     env: E,
     learner: &mut dyn Learner,
     dist: &DelayDist,
@@ -364,21 +381,37 @@ fn learn<E: Env>(
     let (mut w_earned, mut w_received) = (0.0, 0.0);
     // Steps left in the current curve window (a countdown, not a division per step).
     let mut window_left = cfg.window;
+    // The next progress check and the next sample of the learner's diagnostics (both at
+    // the start of a step), and the earlier of the two: one comparison per step.
+    let (mut next_check, mut next_sample) = (CHECK_EVERY, DIAGNOSTICS_EVERY);
+    let mut next_event = next_check.min(next_sample);
     let mut pending_progress = 0u64;
     for t in 0..cfg.steps {
-        // The stop flag every step (one relaxed load: a robot primitive can take long);
-        // progress in chunks.
+        if t == next_event {
+            if t == next_sample {
+                // The learner has learned from `t` steps.
+                sample_diagnostics(&mut traj, &*learner, t);
+                next_sample += DIAGNOSTICS_EVERY;
+            }
+            let check = t == next_check;
+            if check {
+                next_check += CHECK_EVERY;
+            }
+            next_event = next_sample.min(next_check);
+            if check {
+                // Progress in chunks.
+                (ctl.progress)(pending_progress);
+                pending_progress = 0;
+                // An observer that lost output (a failed write) ends the seed: its results
+                // could never be reported complete.
+                if observer.as_ref().is_some_and(|o| o.error().is_some()) {
+                    break;
+                }
+            }
+        }
+        // The stop flag every step (one relaxed load: a robot primitive can take long).
         if ctl.stop.load(Ordering::Relaxed) {
             break;
-        }
-        if t % CHECK_EVERY == 0 && t > 0 {
-            (ctl.progress)(pending_progress);
-            pending_progress = 0;
-            // An observer that lost output (a failed write) ends the seed: its results
-            // could never be reported complete.
-            if observer.as_ref().is_some_and(|o| o.error().is_some()) {
-                break;
-            }
         }
         let d = learner.act(s, &mut rng);
         let st = ch.step(d.action).map_err(env_err)?;
@@ -439,6 +472,9 @@ fn learn<E: Env>(
         }
         s = st.step.state;
     }
+    if traj.steps_done == next_sample {
+        sample_diagnostics(&mut traj, &*learner, next_sample);
+    }
     (ctl.progress)(pending_progress);
     traj.delays = ch.delay_stats();
     traj.sim_time_s = ch.env().sim_time_s();
@@ -452,6 +488,15 @@ fn learn<E: Env>(
         });
     }
     Ok((traj, ch.into_inner()))
+}
+
+/// Appends the learner's diagnostics after `step` steps to the trajectory (unless it
+/// reports none).
+fn sample_diagnostics(traj: &mut Trajectory, learner: &dyn Learner, step: u64) {
+    let diagnostics = learner.diagnostics();
+    if diagnostics != Diagnostics::default() {
+        traj.diagnostics.push(DiagnosticsSample { step, diagnostics });
+    }
 }
 
 fn event_index(e: Event) -> usize {
@@ -483,7 +528,7 @@ fn cell_tables<E: Env>(env: &E, learner: &dyn Learner, visits: &[u64]) -> (Vec<f
 
 /// Greedy evaluation: `steps` steps of the greedy policy from `S`, no exploration and no
 /// updates; returns the average emitted reward per step and the first states visited.
-pub fn evaluate<E: Env>(
+pub fn evaluate<E: Env + Telemetry>(
     env: &mut E,
     learner: &dyn Learner,
     steps: u64,
@@ -658,5 +703,39 @@ mod tests {
         assert!(check_tables_fit(&grid, &gw, need).is_ok());
         let e = check_tables_fit(&heading, &hw, need).unwrap_err().to_string();
         assert!(e.contains("mmq"), "{e}");
+    }
+
+    /// The runner samples the learner's diagnostics right after it learned from step T
+    /// (T a multiple of DIAGNOSTICS_EVERY): the sample at T of a longer run is the final
+    /// diagnostics of the same seed's run of T steps, and not those of T − 1 steps.
+    #[test]
+    fn diagnostics_are_sampled_right_after_their_step() {
+        let world = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml"));
+        let every = DIAGNOSTICS_EVERY;
+        let mut cfg = RunConfig {
+            world,
+            steps: 2 * every + 500,
+            eval_steps: 0,
+            baseline: false,
+            save_tables: false,
+            ..RunConfig::default()
+        };
+        cfg.learner.kind = mmq_learn::LearnerKind::DeconvModel;
+        let (world, dist) = (cfg.load_world().unwrap(), cfg.validate().unwrap());
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        let run = |steps: u64| {
+            let c = RunConfig { steps, ..cfg.clone() };
+            run_seed(&c, &world, &dist, 3, None, ctl, u128::MAX).unwrap()
+        };
+        let long = run(cfg.steps);
+        let at: Vec<u64> = long.run.diagnostics.iter().map(|s| s.step).collect();
+        assert_eq!(at, vec![every, 2 * every]);
+        let sample = &long.run.diagnostics[0].diagnostics;
+        assert_eq!(*sample, run(every).diagnostics);
+        assert_ne!(*sample, run(every - 1).diagnostics);
+        assert_ne!(*sample, long.diagnostics);
+        let delay = sample.delay.as_ref().expect("deconv-model estimates the delay");
+        assert!(delay.estimated && delay.pmf.len() == cfg.learner.max_delay + 1);
     }
 }

@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 
 use mmq_core::World;
 use mmq_core::stats::{MeanCi, mean_ci};
+use mmq_learn::{DelayEstimate, Diagnostics};
 use serde::{Deserialize, Serialize};
 
 use crate::config::RunConfig;
@@ -69,6 +70,56 @@ pub fn ceiling_per_step(cfg: &RunConfig, world: &World) -> Option<f64> {
     moves.then(|| mmq_core::epsilon_soft_ceiling(world, cfg.learner.params.epsilon).gain)
 }
 
+/// A learner's diagnostics under their metric names: its figures as named, the delay
+/// estimate as `delay/mean_est`, `delay/median_est`, `delay/estimated` (1 or 0),
+/// `delay/median_se` and `delay/median_cdf_se` (when known), `delay/pmf/KKK` (lag K, three
+/// digits), `delay/mean_est_s` and `delay/median_est_s` (time bins), and the decoded
+/// reward values as `reward/value/V`.
+pub fn diagnostics_entries(d: &Diagnostics) -> Vec<(String, f64)> {
+    let mut m = Vec::new();
+    if let Some(p) = &d.delay {
+        m.push(("delay/mean_est".to_string(), p.mean));
+        m.push(("delay/median_est".to_string(), p.median));
+        m.push(("delay/estimated".to_string(), f64::from(u8::from(p.estimated))));
+        push_median_se(&mut m, p, "");
+        for (k, x) in p.pmf.iter().enumerate() {
+            m.push((format!("delay/pmf/{k:03}"), *x));
+        }
+        if let (Some(mean), Some(median)) = (p.mean_s(), p.median_s()) {
+            m.push(("delay/mean_est_s".to_string(), mean));
+            m.push(("delay/median_est_s".to_string(), median));
+        }
+    }
+    m.extend(d.figures.iter().map(|(k, v)| ((*k).to_string(), *v)));
+    for (v, &value) in d.reward_values.iter().enumerate() {
+        m.push((format!("reward/value/{v}"), value));
+    }
+    m
+}
+
+/// The standard errors of the median of `p`, when known, named with the suffix `at`.
+fn push_median_se(m: &mut Vec<(String, f64)>, p: &DelayEstimate, at: &str) {
+    if let Some(se) = p.median_se {
+        m.push((format!("delay/median_se{at}"), se.steps));
+        m.push((format!("delay/median_cdf_se{at}"), se.cdf));
+    }
+}
+
+/// A seed's learner metrics: its final diagnostics ([`diagnostics_entries`]) and, from
+/// the samples taken during learning, the delay estimate at step T as
+/// `delay/mean_est@T`, `delay/median_est@T`, `delay/median_se@T`, `delay/median_cdf_se@T`.
+pub fn learner_entries(r: &SeedResult) -> Vec<(String, f64)> {
+    let mut m = diagnostics_entries(&r.diagnostics);
+    for s in &r.run.diagnostics {
+        if let Some(p) = &s.diagnostics.delay {
+            m.push((format!("delay/mean_est@{}", s.step), p.mean));
+            m.push((format!("delay/median_est@{}", s.step), p.median));
+            push_median_se(&mut m, p, &format!("@{}", s.step));
+        }
+    }
+    m
+}
+
 /// The per-seed metrics under their stable names: `optimum` is the world's optimal
 /// reward per step, `ceiling` its ε-soft ceiling (if known).
 pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTreeMap<String, f64> {
@@ -111,8 +162,8 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTree
     if let Some(g) = r.baseline_greedy_per_step {
         m.insert("baseline/eval_greedy_per_step".into(), g);
     }
-    for (k, v) in &r.learner_metrics {
-        m.insert(k.clone(), *v);
+    for (k, v) in learner_entries(r) {
+        m.insert(k, v);
     }
     for (k, v) in &r.env_stats {
         m.insert(format!("env/{k}"), *v);

@@ -29,8 +29,9 @@
 
 use std::collections::HashMap;
 
+use crate::Diagnostics;
 use crate::Table;
-use crate::deconv::{DeconvConfig, Deconvolver, SNAPSHOT_EVERY, next_refit_after};
+use crate::deconv::{DeconvConfig, Deconvolver, next_refit_after};
 
 /// At most this many reward values.
 pub const MAX_VALUES: usize = 4;
@@ -245,9 +246,6 @@ impl ValueDeconvolver {
             self.refit();
             refitted = true;
         }
-        if t.is_multiple_of(SNAPSHOT_EVERY) {
-            self.parts[0].push_snapshot();
-        }
         refitted
     }
 
@@ -336,18 +334,16 @@ impl ValueDeconvolver {
         [r, p]
     }
 
-    /// Learner metrics: the delay estimate ([`Deconvolver::metrics`], shared) and the
+    /// Diagnostics: the delay estimate ([`Deconvolver::diagnostics`], shared) and the
     /// reward values found.
-    pub fn metrics(&self) -> Vec<(String, f64)> {
-        let mut m = self.parts[0].metrics();
+    pub fn diagnostics(&self) -> Diagnostics {
+        let mut d = self.parts[0].diagnostics();
         if self.cfg.decode_values {
-            m.push(("reward/values_found".to_string(), self.values.len() as f64));
-            m.push(("reward/value_rebuilds".to_string(), self.rebuilds as f64));
-            for (v, &value) in self.values.iter().enumerate() {
-                m.push((format!("reward/value/{v}"), value));
-            }
+            d.figures.push(("reward/values_found", self.values.len() as f64));
+            d.figures.push(("reward/value_rebuilds", self.rebuilds as f64));
+            d.reward_values.clone_from(&self.values);
         }
-        m
+        d
     }
 
     /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
@@ -438,8 +434,9 @@ mod tests {
         assert!(neg.rewards().iter().all(|&r| r <= 0.0) && pos.rewards().iter().all(|&r| r >= 0.0));
         assert_eq!(neg.pmf(), pos.pmf());
         assert!((pmf_mean(d.pmf()) - 2.0).abs() < 0.1, "p̂ = {:?}", d.pmf());
-        let m = d.metrics();
-        assert!(m.contains(&("reward/values_found".to_string(), 2.0)));
+        let m = d.diagnostics();
+        assert_eq!(m.figure("reward/values_found"), Some(2.0));
+        assert_eq!(m.reward_values.len(), 2);
     }
 
     #[test]

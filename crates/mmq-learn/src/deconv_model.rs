@@ -55,7 +55,7 @@ use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
 use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
 
 /// Model-based learner on counted transitions and deconvolved rewards.
 #[derive(Clone, Debug)]
@@ -457,11 +457,11 @@ impl Learner for DeconvModel {
         t
     }
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        let mut m = self.deconv.metrics();
-        m.push(("learner/value_max".into(), max_of(&self.v)));
-        m.push(("learner/probes".into(), self.probes_taken as f64));
-        m
+    fn diagnostics(&self) -> Diagnostics {
+        let mut d = self.deconv.diagnostics();
+        d.figures.push(("learner/value_max", max_of(&self.v)));
+        d.figures.push(("learner/probes", self.probes_taken as f64));
+        d
     }
 
     fn reset_history(&mut self) {
@@ -535,7 +535,7 @@ mod tests {
         assert_eq!((waits.action, waits.explored, l.probe_due), (0, false, true));
         let probe = l.act(0, &mut rng);
         assert_eq!((probe.action, probe.explored, l.probe_due), (0, true, false));
-        assert_eq!(l.metrics().iter().find(|m| m.0 == "learner/probes").map(|m| m.1), Some(1.0));
+        assert_eq!(l.diagnostics().figure("learner/probes"), Some(1.0));
         for probes in
             [Probes { rate: 1.0, precision: se * 2.0 }, Probes { rate: 0.0, precision: 1e-9 }, Probes::OFF]
         {

@@ -32,10 +32,10 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::deconv::{DeconvConfig, pmf_mean, pmf_median};
+use crate::deconv::DeconvConfig;
 use crate::deconv_model::{DeconvModel, Probes};
 use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table};
+use crate::{Decision, Diagnostics, Experience, Learner, Table};
 
 /// Default bin width of `deconv-model-time`, seconds (the grid's default step period).
 pub const DEFAULT_TIME_BIN_S: f64 = 0.1;
@@ -153,16 +153,16 @@ impl Learner for DeconvModelTime {
         t
     }
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        let mut m = self.inner.metrics();
-        let pmf = self.inner.deconvolver().pmf();
-        // The estimate in seconds: a lag of j bins is j·b to (j+1)·b; its centre.
-        m.push(("delay/mean_est_s".into(), (pmf_mean(pmf) + 0.5) * self.bin_s));
-        m.push(("delay/median_est_s".into(), (pmf_median(pmf) + 0.5) * self.bin_s));
-        m.push(("learner/time_bin_s".into(), self.bin_s));
-        m.push(("learner/time_bins_idle".into(), self.idle_bins as f64));
-        m.push(("learner/time_bins_shifted".into(), self.shifted as f64));
-        m
+    /// The delay estimate's lags count bins of `time_bin_s` seconds.
+    fn diagnostics(&self) -> Diagnostics {
+        let mut d = self.inner.diagnostics();
+        if let Some(delay) = d.delay.as_mut() {
+            delay.time_bin_s = Some(self.bin_s);
+        }
+        d.figures.push(("learner/time_bin_s", self.bin_s));
+        d.figures.push(("learner/time_bins_idle", self.idle_bins as f64));
+        d.figures.push(("learner/time_bins_shifted", self.shifted as f64));
+        d
     }
 
     fn reset_history(&mut self) {
@@ -239,8 +239,8 @@ mod tests {
             }
             s = s2;
         }
-        let m = time.metrics();
-        let get = |k: &str| m.iter().find(|x| x.0 == k).map(|x| x.1);
+        let m = time.diagnostics();
+        let get = |k: &str| m.figure(k);
         assert_eq!((get("learner/time_bins_idle"), get("learner/time_bins_shifted")), (Some(0.0), Some(0.0)));
         assert_eq!(time.tables()[0].shape, vec![3, 2]);
     }
@@ -276,11 +276,11 @@ mod tests {
         for x in [0, 1, 2, 4] {
             assert!(d.reward(x).abs() < 0.5, "R̂({x}) = {}", d.reward(x));
         }
-        let mean = pmf_mean(d.pmf());
+        let mean = crate::deconv::pmf_mean(d.pmf());
         assert!((8.5..=11.5).contains(&mean), "p̂ mean {mean} bins: {:?}", d.pmf());
-        let m = l.metrics();
-        let get = |k: &str| m.iter().find(|x| x.0 == k).map(|x| x.1).unwrap();
-        assert!((get("delay/mean_est_s") - 1.0).abs() < 0.15, "{}", get("delay/mean_est_s"));
-        assert!(get("learner/time_bins_idle") > 0.0);
+        let m = l.diagnostics();
+        let mean_s = m.delay.as_ref().and_then(|d| d.mean_s()).unwrap();
+        assert!((mean_s - 1.0).abs() < 0.15, "{mean_s}");
+        assert!(m.figure("learner/time_bins_idle").unwrap() > 0.0);
     }
 }

@@ -16,7 +16,7 @@ use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
 use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Experience, Learner, Table, max_of};
+use crate::{Diagnostics, Experience, Learner, Table, max_of};
 
 /// Q-learning on R̂.
 #[derive(Clone, Debug)]
@@ -101,8 +101,8 @@ impl Learner for DeconvQ {
         t
     }
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        self.deconv.metrics()
+    fn diagnostics(&self) -> Diagnostics {
+        self.deconv.diagnostics()
     }
 
     fn reset_history(&mut self) {

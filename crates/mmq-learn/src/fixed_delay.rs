@@ -11,7 +11,7 @@ use mmq_core::{Action, State};
 use crate::policy::greedy_value;
 use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Experience, Learner};
+use crate::{Diagnostics, Experience, Learner};
 
 /// Fixed-delay-estimate Q-learning.
 #[derive(Clone, Debug)]
@@ -62,8 +62,11 @@ impl Learner for FixedDelayQ {
 
     q_table_methods!(q, tables, act(p, model = lambda_hat));
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        vec![("learner/lambda_hat".into(), self.lambda_hat as f64)]
+    fn diagnostics(&self) -> Diagnostics {
+        Diagnostics {
+            figures: vec![("learner/lambda_hat", self.lambda_hat as f64)],
+            ..Diagnostics::default()
+        }
     }
 }
 

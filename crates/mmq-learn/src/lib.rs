@@ -23,6 +23,7 @@ pub mod deconv;
 pub mod deconv_model;
 pub mod deconv_model_time;
 pub mod deconv_q;
+pub mod diagnostics;
 pub mod fixed_delay;
 pub mod mmq;
 pub mod mmq_kernel;
@@ -35,6 +36,7 @@ pub mod sarsa_lambda;
 pub mod spec;
 pub mod table;
 
+pub use diagnostics::{DelayEstimate, Diagnostics};
 pub use spec::{LearnError, LearnerKind, LearnerSpec, build, catalogue};
 
 use mmq_core::{Action, Rng, State};
@@ -109,9 +111,10 @@ pub trait Learner: Send + std::fmt::Debug {
     fn needs_truth(&self) -> bool {
         false
     }
-    /// Learner-specific figures for the summary (e.g. a delay estimate).
-    fn metrics(&self) -> Vec<(String, f64)> {
-        Vec::new()
+    /// What the learner reports about itself now: named figures and its delay estimate
+    /// (callers sample it on a schedule for a time series).
+    fn diagnostics(&self) -> Diagnostics {
+        Diagnostics::default()
     }
     /// Starts a new run: clears memories of past steps (tables are kept).
     fn reset_history(&mut self) {}

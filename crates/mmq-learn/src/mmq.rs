@@ -37,7 +37,7 @@ use mmq_core::{Action, Rng, State};
 
 use crate::policy::{epsilon_greedy, pick_tie_in};
 use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table};
+use crate::{Decision, Diagnostics, Experience, Learner, Table};
 
 /// The cached maximum of a set of table entries (a state's block or one column).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -388,7 +388,7 @@ impl Learner for MultipleModelQ {
         }]
     }
 
-    fn metrics(&self) -> Vec<(String, f64)> {
+    fn diagnostics(&self) -> Diagnostics {
         let total: u64 = self.chosen.iter().sum();
         let mode = self
             .chosen
@@ -401,7 +401,8 @@ impl Learner for MultipleModelQ {
         } else {
             f64::NAN
         };
-        vec![("learner/model_star_mode".into(), mode as f64), ("learner/model_star_mean".into(), mean)]
+        let figures = vec![("learner/model_star_mode", mode as f64), ("learner/model_star_mean", mean)];
+        Diagnostics { figures, ..Diagnostics::default() }
     }
 
     fn reset_history(&mut self) {

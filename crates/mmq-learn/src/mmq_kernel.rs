@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::mmq_reference::{act_on_block, best_model_values, q_table};
 use crate::policy::argmax_random_tie;
 use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table, max_of};
+use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
 
 /// Where the target's max looks (`bootstrap` in `[beyond]`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -168,17 +168,18 @@ impl Learner for KernelMmq {
         vec![q_table(&self.q, self.n, self.num_actions)]
     }
 
-    fn metrics(&self) -> Vec<(String, f64)> {
+    fn diagnostics(&self) -> Diagnostics {
         let total: u64 = self.chosen.iter().sum();
         let mean = if total > 0 {
             self.chosen.iter().enumerate().map(|(k, &c)| k as f64 * c as f64).sum::<f64>() / total as f64
         } else {
             f64::NAN
         };
-        vec![
-            ("mmq/leader".to_string(), self.leader().map_or(f64::NAN, |l| l as f64)),
-            ("mmq/mean_chosen_model".to_string(), mean),
-        ]
+        let figures = vec![
+            ("mmq/leader", self.leader().map_or(f64::NAN, |l| l as f64)),
+            ("mmq/mean_chosen_model", mean),
+        ];
+        Diagnostics { figures, ..Diagnostics::default() }
     }
 
     fn reset_history(&mut self) {

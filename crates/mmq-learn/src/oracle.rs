@@ -17,7 +17,7 @@ use mmq_core::{Action, State};
 
 use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Experience, Learner, max_of};
+use crate::{Diagnostics, Experience, Learner, max_of};
 
 /// Q-learning with true credit assignment (needs [`Truth`](crate::Truth)).
 #[derive(Clone, Debug)]
@@ -87,11 +87,12 @@ impl Learner for Oracle {
         true
     }
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        vec![
-            ("learner/credited".into(), self.credited as f64),
-            ("learner/in_flight".into(), self.pending.len() as f64),
-        ]
+    fn diagnostics(&self) -> Diagnostics {
+        let figures = vec![
+            ("learner/credited", self.credited as f64),
+            ("learner/in_flight", self.pending.len() as f64),
+        ];
+        Diagnostics { figures, ..Diagnostics::default() }
     }
 
     fn reset_history(&mut self) {
@@ -147,7 +148,7 @@ mod tests {
         let t4 = Truth { emitted_now: Some(10.0), delivered: vec![(4, 10.0)] };
         l.observe(&exp(4, 0, 1, 1, 10.0, &t4));
         assert_eq!(l.q(0, 1), 7.5);
-        assert_eq!(l.metrics()[0], ("learner/credited".into(), 3.0));
+        assert_eq!(l.diagnostics().figure("learner/credited"), Some(3.0));
     }
 
     #[test]

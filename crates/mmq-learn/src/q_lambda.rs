@@ -18,7 +18,7 @@ use mmq_core::{Action, Rng, State};
 
 use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Decision, Experience, Learner, max_of};
+use crate::{Decision, Diagnostics, Experience, Learner, max_of};
 
 /// Traces below this are dropped (their effect is below 1e-6 of one update).
 pub const TRACE_CUTOFF: f64 = 1e-6;
@@ -123,11 +123,10 @@ impl Learner for QLambda {
 
     q_table_methods!(q, tables);
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        vec![
-            ("learner/trace_decay".into(), self.trace_decay),
-            ("learner/trace_cuts".into(), self.cuts as f64),
-        ]
+    fn diagnostics(&self) -> Diagnostics {
+        let figures =
+            vec![("learner/trace_decay", self.trace_decay), ("learner/trace_cuts", self.cuts as f64)];
+        Diagnostics { figures, ..Diagnostics::default() }
     }
 
     fn reset_history(&mut self) {

@@ -17,7 +17,7 @@ use mmq_core::{Action, State};
 use crate::q_lambda::Traces;
 use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Experience, Learner};
+use crate::{Diagnostics, Experience, Learner};
 
 /// SARSA(λ).
 #[derive(Clone, Debug)]
@@ -72,8 +72,8 @@ impl Learner for SarsaLambda {
 
     q_table_methods!(q, tables, act(p));
 
-    fn metrics(&self) -> Vec<(String, f64)> {
-        vec![("learner/trace_decay".into(), self.trace_decay)]
+    fn diagnostics(&self) -> Diagnostics {
+        Diagnostics { figures: vec![("learner/trace_decay", self.trace_decay)], ..Diagnostics::default() }
     }
 
     fn reset_history(&mut self) {

@@ -22,6 +22,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group};
+use mmq_core::Telemetry;
 use mmq_core::seed::splitmix64;
 use mmq_core::{
     ContactSample, DelayDist, DelayedReward, Env, Event, Ledger, Move, Observer, PoseSample, RunInfo, Start,

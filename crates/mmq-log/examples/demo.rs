@@ -9,6 +9,7 @@
 
 use std::path::PathBuf;
 
+use mmq_core::Telemetry;
 use mmq_core::seed::splitmix64;
 use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepTrace, World};
 use mmq_grid::GridEnv;

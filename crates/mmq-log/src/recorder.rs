@@ -137,7 +137,7 @@ impl RecorderConfig {
     /// (`pose_rate_hz` = 0): 1 ms, i.e. every physics step of 1 ms or more.
     pub const FULL_TRACE_PERIOD_S: f64 = 1e-3;
 
-    /// The trace period the recorder asks the environment for (`Env::set_trace`), in
+    /// The trace period the recorder asks the environment for (`Telemetry::set_trace`), in
     /// seconds of simulated time: 1 / `pose_rate_hz`, or [`Self::FULL_TRACE_PERIOD_S`]
     /// when `pose_rate_hz` is 0.
     pub fn trace_period_s(&self) -> f64 {

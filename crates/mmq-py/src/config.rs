@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use mmq_core::{DelayDist, Env, Start, World};
+use mmq_core::{DelayDist, Env, Start, Telemetry, World};
 use mmq_grid::GridEnv;
 use mmq_robot::{RobotConfig, RobotEnv};
 use pyo3::prelude::*;
@@ -280,8 +280,17 @@ impl Env for AnyEnv {
     fn step(&mut self, action: usize) -> Result<mmq_core::Step, mmq_core::EnvError> {
         both!(self, e => e.step(action))
     }
+}
+
+impl Telemetry for AnyEnv {
     fn sim_time_s(&self) -> f64 {
         both!(self, e => e.sim_time_s())
+    }
+    fn set_trace(&mut self, period_s: Option<f64>) {
+        both!(self, e => e.set_trace(period_s))
+    }
+    fn take_trace(&mut self, out: &mut mmq_core::StepTrace) {
+        both!(self, e => e.take_trace(out))
     }
     fn pose(&self) -> mmq_core::PoseSample {
         both!(self, e => e.pose())

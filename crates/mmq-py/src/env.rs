@@ -3,6 +3,7 @@
 //! `info` (emission, deliveries with their delays in steps and seconds, time, event, the
 //! true and believed cell), and the three policies for rewards in flight at a reset.
 
+use mmq_core::Telemetry;
 use mmq_core::{DelayedReward, DelayedStep, Env, SeedTree, Start, Stream};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;

@@ -216,9 +216,10 @@ impl LearnerCore {
         self.learner.tables().into_iter().map(|t| (t.name, t.shape, PyArray1::from_vec(py, t.data))).collect()
     }
 
-    /// Learner-specific figures.
+    /// Learner-specific figures now (its delay estimate among them), under the metric
+    /// names of a run's summary.
     fn metrics(&self) -> Vec<(String, f64)> {
-        self.learner.metrics()
+        mmq_lab::summary::diagnostics_entries(&self.learner.diagnostics())
     }
 
     /// Steps observed so far.

@@ -10,6 +10,7 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, Throughput, criterion_group};
+use mmq_core::Telemetry;
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start, World};
 use mmq_robot::{NoiseConfig, Profile, RobotConfig, RobotEnv};

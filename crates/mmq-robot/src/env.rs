@@ -5,7 +5,9 @@
 use std::f64::consts::FRAC_PI_2;
 use std::fmt;
 
-use mmq_core::{Action, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace, World};
+use mmq_core::{
+    Action, Env, EnvError, Event, Move, PoseSample, Start, State, Step, StepTrace, Telemetry, World,
+};
 use rapier2d::prelude::{CollisionEvent, Real, RigidBody, Vector};
 
 use crate::arena::{Collector, Scene, Wall};
@@ -175,7 +177,9 @@ impl Env for RobotEnv {
         let rb = &self.scene.phys.bodies[robot];
         self.core.finish_step(event, rb)
     }
+}
 
+impl Telemetry for RobotEnv {
     fn sim_time_s(&self) -> f64 {
         self.core.time_s
     }

@@ -58,7 +58,7 @@ mod stats;
 pub(crate) use counts::MAX_PAIRS;
 pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 
-use crate::Table;
+use crate::{DelayEstimate, Diagnostics, Table};
 use stats::{LagStats, UNSEEN};
 
 /// Penalty of a pair feature relative to a state feature (state features on).
@@ -75,9 +75,6 @@ const ELIM_SWEEPS: usize = 10;
 pub const HISTORY_MAX: usize = 1 << 21;
 /// A pair that led to more than one next state.
 const MIXED: u32 = u32::MAX - 1;
-
-/// Steps between two snapshots of the delay estimate (reported by `metrics`).
-pub const SNAPSHOT_EVERY: u64 = 10_000;
 
 /// Configuration of a [`Deconvolver`].
 #[derive(Clone, Debug, PartialEq)]
@@ -130,19 +127,6 @@ pub(crate) fn next_refit_after(refit_every: u64, t: u64) -> u64 {
     t + refit_every.max(t / 8)
 }
 
-/// One snapshot of the delay estimate.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Snapshot {
-    /// Steps observed.
-    pub t: u64,
-    /// Mean of p̂.
-    pub mean: f64,
-    /// Median of p̂ ([`pmf_median`]).
-    pub median: f64,
-    /// Standard errors of the median ([`median_se`]; `None` when unknown).
-    pub median_se: Option<MedianSe>,
-}
-
 /// The reward table R̂ and delay pmf p̂ of (D1)–(D2), refitted as data comes in.
 #[derive(Clone, Debug)]
 pub struct Deconvolver {
@@ -176,7 +160,6 @@ pub struct Deconvolver {
     /// inverse (the rest were O(s²) updates).
     joint_drops: u64,
     joint_factorisations: u64,
-    snapshots: Vec<Snapshot>,
     /// Sign every reward feature must have (+1, −1; 0: free): a deconvolver of one reward
     /// value's deliveries ([`crate::decode`]) only fits rewards of that value's sign.
     sign: f64,
@@ -229,7 +212,6 @@ impl Deconvolver {
             cold_wins: 0,
             joint_drops: 0,
             joint_factorisations: 0,
-            snapshots: Vec::new(),
             sign: 0.0,
             median_se: None,
         }
@@ -267,11 +249,6 @@ impl Deconvolver {
             },
             Table { name: "delay_pmf".into(), shape: vec![self.pmf.len()], data: self.pmf.clone() },
         ]
-    }
-
-    /// Snapshots of the delay estimate, every [`SNAPSHOT_EVERY`] steps.
-    pub fn snapshots(&self) -> &[Snapshot] {
-        &self.snapshots
     }
 
     /// Whether p̂ is estimated (not told).
@@ -332,9 +309,6 @@ impl Deconvolver {
             self.next_refit = next_refit_after(self.cfg.refit_every, t);
             refitted = true;
         }
-        if t.is_multiple_of(SNAPSHOT_EVERY) {
-            self.push_snapshot();
-        }
         refitted
     }
 
@@ -348,7 +322,7 @@ impl Deconvolver {
         };
     }
 
-    /// One step's statistics (no refit, no snapshot): pair `x` taken, `reward` delivered.
+    /// One step's statistics (no refit): pair `x` taken, `reward` delivered.
     pub(crate) fn record(&mut self, x: usize, reward: f64) {
         let i = self.stats.record(x, reward);
         if self.cfg.pmf_weighted && self.cfg.told.is_none() {
@@ -361,12 +335,11 @@ impl Deconvolver {
         }
     }
 
-    /// Takes over `other`'s delay estimate, its snapshots and its counters (refits,
+    /// Takes over `other`'s delay estimate and its counters (refits,
     /// cold-start wins, joint-test drops): a deconvolver rebuilt from the history
     /// continues where `other` was.
     pub(crate) fn inherit(&mut self, other: &Deconvolver) {
         self.pmf.clone_from(&other.pmf);
-        self.snapshots.clone_from(&other.snapshots);
         self.refits = other.refits;
         self.cold_wins = other.cold_wins;
         self.joint_drops = other.joint_drops;
@@ -376,16 +349,6 @@ impl Deconvolver {
     /// Restricts every reward feature to the sign of `sign` (0: free).
     pub(crate) fn set_sign(&mut self, sign: f64) {
         self.sign = if sign == 0.0 { 0.0 } else { sign.signum() };
-    }
-
-    /// Appends a snapshot of the delay estimate at the current step.
-    pub(crate) fn push_snapshot(&mut self) {
-        self.snapshots.push(Snapshot {
-            t: self.stats.t,
-            mean: pmf_mean(&self.pmf),
-            median: pmf_median(&self.pmf),
-            median_se: self.median_se,
-        });
     }
 
     /// Refits R̂ given p̂, then (when estimating) p̂ given R̂ and R̂ again.
@@ -494,34 +457,20 @@ impl Deconvolver {
         self.hist_r.clear();
     }
 
-    /// Learner metrics: the delay estimate now and at every snapshot, and p̂ itself.
-    pub fn metrics(&self) -> Vec<(String, f64)> {
-        let mut m = vec![
-            ("delay/mean_est".to_string(), pmf_mean(&self.pmf)),
-            ("delay/median_est".to_string(), pmf_median(&self.pmf)),
-            ("delay/refits".to_string(), self.refits as f64),
-            ("delay/cold_start_wins".to_string(), self.cold_wins as f64),
-            ("delay/joint_drops".to_string(), self.joint_drops as f64),
-            ("delay/joint_factorisations".to_string(), self.joint_factorisations as f64),
-            ("delay/estimated".to_string(), f64::from(u8::from(self.estimates_delay()))),
-            ("learner/pairs_seen".to_string(), self.stats.n() as f64),
-        ];
-        let push_se = |m: &mut Vec<(String, f64)>, se: Option<MedianSe>, at: &str| {
-            if let Some(se) = se {
-                m.push((format!("delay/median_se{at}"), se.steps));
-                m.push((format!("delay/median_cdf_se{at}"), se.cdf));
-            }
-        };
-        push_se(&mut m, self.median_se, "");
-        for s in &self.snapshots {
-            m.push((format!("delay/mean_est@{}", s.t), s.mean));
-            m.push((format!("delay/median_est@{}", s.t), s.median));
-            push_se(&mut m, s.median_se, &format!("@{}", s.t));
+    /// Diagnostics: the delay estimate p̂ (with its mean, median and the median's
+    /// standard errors), the refit counters and the pairs seen.
+    pub fn diagnostics(&self) -> Diagnostics {
+        Diagnostics {
+            figures: vec![
+                ("delay/refits", self.refits as f64),
+                ("delay/cold_start_wins", self.cold_wins as f64),
+                ("delay/joint_drops", self.joint_drops as f64),
+                ("delay/joint_factorisations", self.joint_factorisations as f64),
+                ("learner/pairs_seen", self.stats.n() as f64),
+            ],
+            delay: Some(DelayEstimate::of_pmf(&self.pmf, self.median_se, self.estimates_delay())),
+            reward_values: Vec::new(),
         }
-        for (k, p) in self.pmf.iter().enumerate() {
-            m.push((format!("delay/pmf/{k:03}"), *p));
-        }
-        m
     }
 }
 

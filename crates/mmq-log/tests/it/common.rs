@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use mmq_core::Telemetry;
 use mmq_core::seed::splitmix64;
 use mmq_core::{
     ContactSample, DelayDist, DelayedReward, Env, Event, Move, Observer, PoseSample, RunInfo, Start,

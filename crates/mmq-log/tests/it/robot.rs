@@ -2,6 +2,7 @@
 //! forward, poses stay in the arena, every message validates, and the decisions match
 //! the run.
 
+use mmq_core::Telemetry;
 use mmq_core::{DelayDist, DelayedReward, Env, Observer, RunInfo, Start, StepTrace};
 use mmq_log::messages::topics;
 use mmq_log::{McapRecorder, RecorderConfig, read_log};

@@ -1,6 +1,7 @@
 //! Determinism: the environment checker, seeded reproducibility, the free-flight
 //! equivalence, and the committed trajectory digest.
 
+use mmq_core::Telemetry;
 use mmq_core::env::check_determinism;
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start};

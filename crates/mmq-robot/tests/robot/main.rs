@@ -20,8 +20,8 @@ pub fn env(name: &str) -> RobotEnv {
     RobotEnv::from_world(&world(name)).unwrap()
 }
 
-/// A named figure from `Env::stats`.
+/// A named figure from `Telemetry::stats`.
 pub fn stat(env: &RobotEnv, key: &str) -> f64 {
-    use mmq_core::Env;
+    use mmq_core::Telemetry;
     env.stats().into_iter().find(|(k, _)| k == key).map(|(_, v)| v).unwrap()
 }

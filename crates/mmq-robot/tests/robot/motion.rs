@@ -1,5 +1,6 @@
 //! The four-move primitives on the paper's 9×9 world and the 15×15 maze, noise off.
 
+use mmq_core::Telemetry;
 use mmq_core::{Env, Event, Move, Start};
 
 use crate::{env, stat};

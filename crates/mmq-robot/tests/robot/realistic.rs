@@ -1,6 +1,7 @@
 //! The realistic profile: determinism, the believed vs true state, telemetry (estimates
 //! and fixes), diagnostics, and its configuration's bad input.
 
+use mmq_core::Telemetry;
 use mmq_core::env::check_determinism;
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Env, Start, StepTrace};

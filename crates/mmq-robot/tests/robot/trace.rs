@@ -1,5 +1,6 @@
 //! Pose and contact traces, simulated time, stats and build features.
 
+use mmq_core::Telemetry;
 use mmq_core::{Env, Start, StepTrace};
 
 use crate::{env, stat};
