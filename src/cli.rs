@@ -52,7 +52,7 @@ pub enum EnvChoice {
 /// Flags of `mmq paper`.
 #[derive(Debug, Args)]
 pub struct PaperArgs {
-    /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity), all, or beyond
+    /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity), all, or comparison
     /// (the learner comparison: every learner, two worlds, many delays; not part of all);
     /// comma-separated.
     #[arg(long, default_value = "all")]

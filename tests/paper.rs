@@ -195,12 +195,12 @@ fn the_learner_comparison_reports_the_ceiling_and_the_regret() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("comparison");
     let o = Command::new(env!("CARGO_BIN_EXE_mmq"))
-        .args(["paper", "--quick", "--fig", "beyond", "--steps", "600", "--seeds", "1", "-q", "--out"])
+        .args(["paper", "--quick", "--fig", "comparison", "--steps", "600", "--seeds", "1", "-q", "--out"])
         .arg(&out)
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let text = std::fs::read_to_string(out.join("beyond.csv")).unwrap();
+    let text = std::fs::read_to_string(out.join("comparison.csv")).unwrap();
     let mut lines = text.lines();
     let head: Vec<&str> = lines.next().unwrap().split(',').collect();
     let mut ratios: HashMap<(String, String), Vec<f64>> = HashMap::new();

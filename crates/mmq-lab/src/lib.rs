@@ -6,7 +6,7 @@
 //! Architecture invariant: the lab reports progress through a callback and stops on a
 //! flag; it never prints, never owns a progress bar and knows no command-line parser.
 
-pub mod beyond;
+pub mod comparison;
 pub mod config;
 pub mod error;
 pub mod exec;

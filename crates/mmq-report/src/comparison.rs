@@ -1,4 +1,4 @@
-//! The learner comparison's section of the paper's report: runs the comparison (`mmq_lab::beyond`: every learner,
+//! The learner comparison's section of the paper's report: runs the comparison (`mmq_lab::comparison`: every learner,
 //! two worlds, Poisson and non-Poisson delays, three ε), draws its figures and returns
 //! its section of `report.md` — relative performance, fraction of the optimum, greedy
 //! evaluation and the delay estimate against the truth, each with its 95 % interval.
@@ -10,7 +10,7 @@ use std::sync::atomic::AtomicBool;
 
 use mmq_core::World;
 use mmq_core::stats::MeanCi;
-use mmq_lab::beyond::{self, BeyondOptions, DECONV, JUDGE_AT, LEARNERS, Outcome};
+use mmq_lab::comparison::{self as study, ComparisonOptions, DECONV, JUDGE_AT, LEARNERS, Outcome};
 use mmq_lab::paper::{self as lab_paper};
 use mmq_lab::{Control, LabError};
 use mmq_learn::LearnerKind;
@@ -44,37 +44,37 @@ impl<'a> Index<'a> {
 
 /// Runs the study and returns its report section.
 pub(crate) fn run(
-    o: &BeyondOptions,
+    o: &ComparisonOptions,
     out: &Path,
     stop: &AtomicBool,
     prog: &dyn Progress,
 ) -> Result<Doc, ReportError> {
-    let settings = beyond::settings();
-    let cfgs: Vec<_> = settings.iter().map(|s| beyond::config(o, s)).collect();
-    prog.begin(lab_paper::total_steps(&cfgs), "beyond");
+    let settings = study::settings();
+    let cfgs: Vec<_> = settings.iter().map(|s| study::config(o, s)).collect();
+    prog.begin(lab_paper::total_steps(&cfgs), "comparison");
     let progress = |n: u64| prog.advance(n);
     let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &progress })?;
     prog.end();
     let mut worlds: HashMap<String, World> = HashMap::new();
-    for w in beyond::WORLDS {
+    for w in study::WORLDS {
         worlds
             .insert(w.to_string(), World::load(o.worlds.join(format!("{w}.toml"))).map_err(LabError::from)?);
     }
     let outs: Vec<Outcome> = settings
         .iter()
         .zip(&groups)
-        .map(|(s, g)| beyond::outcome(s, g, &worlds[&s.world]))
+        .map(|(s, g)| study::outcome(s, g, &worlds[&s.world]))
         .collect::<Result<_, _>>()?;
     report(o, out, &outs)
 }
 
-fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
+fn report(o: &ComparisonOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
     let ix = Index::new(outs);
     let mut sec = Doc::new(out);
     let md = &mut sec.md;
     let _ = writeln!(
         md,
-        "\n## Beyond the paper: learners that reach the undelayed limit\n\n\
+        "\n## The learner comparison: learners that reach the undelayed limit\n\n\
          Every learner on the paper's 9×9 world and on the 15×15 maze, {} steps per setting; seeds per setting: \
          9×9 {} for the headline settings (Poisson λ = 13 and the non-Poisson delays at ε = 0.05 and 0.1) and {} for \
          the rest of the λ × ε grid and the told-pmf ablation; maze {} and {}; \
@@ -93,14 +93,14 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
     // Headline: 9×9 at ε = 0.05 and 0.1 for the four non-trivial delays.
     let headline_delays: Vec<(String, String)> =
         std::iter::once(("Poisson λ = 13".to_string(), "poisson:13".to_string()))
-            .chain(beyond::OTHER_DELAYS.iter().map(|(l, s)| (l.to_string(), s.to_string())))
+            .chain(study::OTHER_DELAYS.iter().map(|(l, s)| (l.to_string(), s.to_string())))
             .collect();
     for (label, delay) in &headline_delays {
         let _ = writeln!(
             md,
             "\n### 9×9, {label}\n\n| learner | ε | relative performance | fraction of the ε-soft ceiling | regret (reward) | fraction of optimum | greedy (reward/step) | worst seed | greedy optimal |\n|---|---|---|---|---|---|---|---|---|"
         );
-        for eps in beyond::OTHER_EPSILONS {
+        for eps in study::OTHER_EPSILONS {
             for (k, told) in LEARNERS.iter().map(|&k| (k, false)).chain(DECONV.iter().map(|&k| (k, true))) {
                 let Some(x) = ix.get("paper-9x9", delay, eps, k, told) else { continue };
                 let _ = writeln!(
@@ -120,16 +120,16 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
         }
     }
     // Full grids: relative performance per world and ε, learners × delays.
-    for world in beyond::WORLDS {
+    for world in study::WORLDS {
         let _ = writeln!(md, "\n### {world}: relative performance for every delay\n");
-        for eps in beyond::EPSILONS {
-            let delays: Vec<(String, String)> = beyond::LAMBDAS
+        for eps in study::EPSILONS {
+            let delays: Vec<(String, String)> = study::LAMBDAS
                 .iter()
                 .map(|l| (format!("λ = {l}"), format!("poisson:{l}")))
                 .chain(
-                    beyond::OTHER_DELAYS
+                    study::OTHER_DELAYS
                         .iter()
-                        .filter(|_| beyond::OTHER_EPSILONS.contains(&eps))
+                        .filter(|_| study::OTHER_EPSILONS.contains(&eps))
                         .map(|(l, s)| (l.to_string(), s.to_string())),
                 )
                 .collect();
@@ -161,11 +161,11 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
          the worst seed's distance from the true median after {JUDGE_AT} steps, and for the mixture the estimated mass of each lobe \
          (delays below and from {} steps; truth ≈ 0.5 / 0.5), and the delay probes `deconv-model` took per seed \
          (docs/algorithms/deconv-model.md).\n\n| world | delay | ε | learner | true median | estimated median (end) | worst seed's error at {JUDGE_AT} (steps) | lobes (low / high) | probes per seed |\n|---|---|---|---|---|---|---|---|---|",
-        beyond::LOBE_SPLIT
+        study::LOBE_SPLIT
     );
     for x in outs.iter().filter(|x| !x.median_curve.is_empty()) {
         let s = &x.setting;
-        let (_, tmed, _) = beyond::truth(&s.delay)?;
+        let (_, tmed, _) = study::truth(&s.delay)?;
         let end = x.median_curve.last().map(|c| c.1);
         let _ = writeln!(
             md,
@@ -182,7 +182,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
     }
     let _ = writeln!(md, "\n### Figures\n");
     // Relative performance vs λ, per world at ε = 0.05.
-    for world in beyond::WORLDS {
+    for world in study::WORLDS {
         let eps = 0.05;
         let mut chart = LineChart::new(
             format!("{world}, ε = {eps}: relative performance vs Poisson mean λ"),
@@ -190,7 +190,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
             "relative performance (%)",
         );
         for k in LEARNERS {
-            let pts: Vec<(f64, MeanCi)> = beyond::LAMBDAS
+            let pts: Vec<(f64, MeanCi)> = study::LAMBDAS
                 .iter()
                 .filter_map(|&l| {
                     ix.get(world, &format!("poisson:{l}"), eps, k, false).map(|x| (l as f64, x.relative))
@@ -204,7 +204,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
         }
         chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
         chart.y_range = Some((-40.0, 130.0));
-        let name = format!("beyond-relative-{world}");
+        let name = format!("comparison-relative-{world}");
         sec.figure(
             chart.write(&out.join(&name))?,
             &format!("{world}, ε = {eps}: relative performance of every learner vs the Poisson mean delay"),
@@ -219,7 +219,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
         );
         for (label, delay) in &headline_delays {
             let Some(x) = ix.get("paper-9x9", delay, 0.05, k, false) else { continue };
-            let (_, tmed, _) = beyond::truth(delay)?;
+            let (_, tmed, _) = study::truth(delay)?;
             let t: Vec<f64> = x.median_curve.iter().map(|c| c.0 as f64).collect();
             let y: Vec<f64> = x.median_curve.iter().map(|c| c.1.mean - tmed).collect();
             let lo: Vec<f64> = x.median_curve.iter().map(|c| c.1.mean - c.1.ci95 - tmed).collect();
@@ -230,7 +230,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
         chart.ref_lines.push(RefLine::new("±1.5 steps", 1.5));
         chart.ref_lines.push(RefLine::new("", -1.5));
         chart.y_label = "estimated − true median (steps)".into();
-        let name = format!("beyond-delay-{}", k.name());
+        let name = format!("comparison-delay-{}", k.name());
         sec.figure(
             chart.write(&out.join(&name))?,
             &format!(
@@ -241,7 +241,7 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
     }
     // Estimated pmf vs truth (9×9, ε = 0.05).
     for (label, delay) in &headline_delays {
-        let (tp, _, _) = beyond::truth(delay)?;
+        let (tp, _, _) = study::truth(delay)?;
         let mut chart =
             LineChart::new(format!("9×9, ε = 0.05, {label}: delay pmf"), "delay k (steps)", "P(d = k)");
         let ks: Vec<f64> = (0..tp.len()).map(|k| k as f64).collect();
@@ -258,12 +258,12 @@ fn report(o: &BeyondOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Report
         let slug: String =
             delay.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '-' }).take(24).collect();
         sec.figure(
-            chart.write(&out.join(format!("beyond-pmf-{slug}")))?,
+            chart.write(&out.join(format!("comparison-pmf-{slug}")))?,
             &format!("9×9, ε = 0.05, {label}: estimated delay pmf at the end vs the truth"),
         );
     }
-    sec.csv("beyond.csv", &beyond::outcomes_csv(outs))?;
-    sec.csv("beyond-delay.csv", &beyond::delay_csv(outs)?)?;
-    sec.csv("beyond-pmf.csv", &beyond::pmf_csv(outs)?)?;
+    sec.csv("comparison.csv", &study::outcomes_csv(outs))?;
+    sec.csv("comparison-delay.csv", &study::delay_csv(outs)?)?;
+    sec.csv("comparison-pmf.csv", &study::pmf_csv(outs)?)?;
     Ok(sec)
 }

@@ -32,7 +32,7 @@ pub enum ReportError {
     Plot(#[from] PlotError),
     /// A figure name that is not one of the paper's.
     #[error(
-        "`{0}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, beyond or all (comma-separated)"
+        "`{0}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, comparison or all (comma-separated)"
     )]
     UnknownFigure(String),
     /// A report was asked of no sweep directory.

@@ -29,8 +29,8 @@ enum Part {
     Fig4,
     Fig6,
     Sensitivity,
-    /// The learner comparison (`src/beyond.rs`); not part of `all`.
-    Beyond,
+    /// The learner comparison (`mmq_lab::comparison`); not part of `all`.
+    Comparison,
 }
 
 fn parts(fig: &str) -> Result<Vec<Part>, ReportError> {
@@ -43,7 +43,7 @@ fn parts(fig: &str) -> Result<Vec<Part>, ReportError> {
             "4" => v.push(Part::Fig4),
             "6" | "7" | "8" | "9" | "10" | "11" | "12" => v.push(Part::Fig6),
             "sens" | "sensitivity" => v.push(Part::Sensitivity),
-            "beyond" => v.push(Part::Beyond),
+            "comparison" => v.push(Part::Comparison),
             other => {
                 return Err(ReportError::UnknownFigure(other.to_string()));
             }
@@ -68,7 +68,7 @@ fn series(name: &str, pts: &[(u64, MeanCi)], scale: f64) -> Series {
 /// What to run and where to write it: the settings of `mmq paper`.
 #[derive(Debug, Clone)]
 pub struct PaperRequest {
-    /// Figures, comma-separated: 2, 3, 4, 6–12 (6 to 12 come together), sens, beyond or all.
+    /// Figures, comma-separated: 2, 3, 4, 6–12 (6 to 12 come together), sens, comparison or all.
     pub fig: String,
     /// The fidelities Figs. 6–12 run on (the other figures are the grid's).
     pub envs: Vec<EnvKind>,
@@ -153,8 +153,8 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
             Part::Fig3 if envs.contains(&EnvKind::Grid) => fig3(o, &mut rep, stop, prog)?,
             Part::Fig4 if envs.contains(&EnvKind::Grid) => fig4(o, &mut rep, stop, prog)?,
             Part::Sensitivity if envs.contains(&EnvKind::Grid) => sensitivity(o, &mut rep, stop, prog)?,
-            Part::Beyond => {
-                let mut bo = mmq_lab::beyond::BeyondOptions::new(a.quick);
+            Part::Comparison => {
+                let mut bo = mmq_lab::comparison::ComparisonOptions::new(a.quick);
                 if let Some(n) = a.seeds {
                     bo.set_all_seeds(n);
                 }

@@ -1,5 +1,5 @@
 //! The learner comparison, "learners that reach the undelayed limit": the study behind
-//! `mmq paper --fig beyond`, as data. Every learner on the paper's 9×9 world and on
+//! `mmq paper --fig comparison`, as data. Every learner on the paper's 9×9 world and on
 //! the 15×15 maze, under Poisson delays λ ∈ {0, 5, 13, 25} at ε ∈ {0.02, 0.05, 0.1},
 //! and under three non-Poisson delays (uniform 0–26, a Poisson(3)/Poisson(25) mixture
 //! and a WiFi-latency-like histogram) at ε ∈ {0.05, 0.1}; plus the deconvolving
@@ -7,7 +7,7 @@
 //! the report live in mmq-report (`comparison.rs`).
 //!
 //! Fixed for every setting: α = 0.1, γ = 0.9, q0 = 10, λ̂max = 50 (the largest delay
-//! the learners are told of), 150,000 steps; seeds per setting: see [`BeyondOptions`]
+//! the learners are told of), 150,000 steps; seeds per setting: see [`ComparisonOptions`]
 //! (`--seeds` sets them all).
 
 use std::fmt::Write as _;
@@ -66,7 +66,7 @@ pub const JUDGE_AT: u64 = 50_000;
 /// which keeps the whole study near an hour on two cores (the deconvolving learners take
 /// ~3 s per 9×9 seed and ~13 s per maze seed).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct BeyondOptions {
+pub struct ComparisonOptions {
     /// Seeds per headline setting on the paper's 9×9 world.
     pub seeds: u64,
     /// Seeds per other setting on 9×9.
@@ -85,7 +85,7 @@ pub struct BeyondOptions {
     pub window: u64,
 }
 
-impl BeyondOptions {
+impl ComparisonOptions {
     /// The full budget (9×9: 20 seeds per headline setting, 5 per other; maze: 5 and 2;
     /// × 150,000 steps) or a quick one (3, 2, 2, 1 seeds × 20,000).
     pub fn new(quick: bool) -> Self {
@@ -197,7 +197,7 @@ pub fn settings() -> Vec<Setting> {
 }
 
 /// The run configuration of a setting.
-pub fn config(o: &BeyondOptions, s: &Setting) -> RunConfig {
+pub fn config(o: &ComparisonOptions, s: &Setting) -> RunConfig {
     let params = Params { alpha: 0.1, gamma: 0.9, epsilon: s.epsilon, q0: 10.0 };
     let beyond = BeyondParams { told_delay: s.told.then(|| s.delay.clone()), ..BeyondParams::default() };
     RunConfig {
@@ -488,7 +488,7 @@ mod tests {
 
     #[test]
     fn every_setting_builds_a_valid_config() {
-        let o = BeyondOptions::new(true);
+        let o = ComparisonOptions::new(true);
         let all = settings();
         assert_eq!(all.len(), 2 * (4 * 3 + 3 * 2) * LEARNERS.len() + 4 * 2 * 2);
         // The comparison names each learner once, and only learners the catalogue has.
