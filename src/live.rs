@@ -45,7 +45,7 @@ pub fn start(
         "--live",
         addr,
         speed,
-        format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display()),
+        format!("mmq run: {} on {}", cfg.learner.kind().name(), cfg.world.display()),
     )?;
     let server = LiveServer::start(&c)?;
     eprintln!(

@@ -140,7 +140,7 @@ fn names_fields(e: &anyhow::Error) -> bool {
         Some(LabError::Learner(l)) => Some(l),
         _ => None,
     });
-    matches!(lab, Some(LabError::InvalidParam { .. } | LabError::EnvBuild(_)))
+    matches!(lab, Some(LabError::InvalidParam { .. } | LabError::Setting { .. } | LabError::EnvBuild(_)))
         || matches!(learn, Some(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. }))
 }
 

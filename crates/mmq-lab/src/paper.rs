@@ -57,7 +57,7 @@ impl PaperOptions {
         RunConfig {
             world: self.worlds.join(format!("{world}.toml")),
             env,
-            learner: LearnerSpec { kind, params, lambda_hat: 0, max_delay: 50, beyond: Default::default() },
+            learner: LearnerSpec { params, ..LearnerSpec::new(kind) },
             delay: delay.into(),
             steps: self.steps,
             seed: self.seed,
@@ -205,7 +205,9 @@ pub fn fig4_configs(o: &PaperOptions) -> Vec<RunConfig> {
     (-10i64..=10)
         .map(|i| {
             let mut c = o.cfg("paper-9x9", EnvKind::Grid, LearnerKind::Fixed, EXPLORE_FIGS_2_4, "poisson:17");
-            c.learner.lambda_hat = (17 + i) as usize;
+            c.learner.settings = mmq_learn::LearnerSettings::Fixed(mmq_learn::settings::FixedSettings {
+                lambda_hat: (17 + i) as usize,
+            });
             c
         })
         .collect()

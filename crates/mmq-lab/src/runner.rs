@@ -182,7 +182,7 @@ pub fn check_tables_fit(cfg: &RunConfig, world: &World, limit: u128) -> Result<u
     let (entries, bytes) = cfg.learner.table_bytes(n_s, n_a);
     if bytes > limit {
         return Err(mmq_learn::LearnError::TooLarge {
-            learner: cfg.learner.kind.name(),
+            learner: cfg.learner.kind().name(),
             entries,
             need_gib: bytes as f64 / (1u128 << 30) as f64,
             limit_gib: limit as f64 / (1u128 << 30) as f64,
@@ -257,7 +257,7 @@ pub fn run_seed_on<E: Env>(
         observer.as_mut(),
         ctl,
         Some((&config_toml, &facts)),
-        cfg.learner.kind.name(),
+        cfg.learner.kind().name(),
     )?;
     let learn_s = learn_clock.elapsed().as_secs_f64();
     let complete = run.steps_done == cfg.steps;
@@ -618,21 +618,7 @@ pub fn optimum_of(world: &World) -> Optimum {
 
 /// A spec of the learner, for reports.
 pub fn describe(spec: &LearnerSpec) -> String {
-    let p = spec.params;
-    format!(
-        "{} (α = {}, γ = {}, ε = {}, q0 = {}{})",
-        spec.kind.name(),
-        p.alpha,
-        p.gamma,
-        p.epsilon,
-        p.q0,
-        match spec.kind {
-            mmq_learn::LearnerKind::Fixed => format!(", λ̂ = {}", spec.lambda_hat),
-            mmq_learn::LearnerKind::Mmq | mmq_learn::LearnerKind::MmqReference =>
-                format!(", λ̂max = {}", spec.max_delay),
-            _ => String::new(),
-        }
-    )
+    spec.describe()
 }
 
 #[cfg(test)]

@@ -453,7 +453,7 @@ fn sensitivity(
             "| {} | {} | {} | {} | {r} | {} | {} |",
             p.epsilon,
             p.q0,
-            g.cfg.learner.kind.name(),
+            g.cfg.learner.kind().name(),
             pct(&rel),
             pct(&frac),
             num(&gr)
@@ -463,7 +463,7 @@ fn sensitivity(
             "{},{},{},{},{},{},{},{},{},{}",
             p.epsilon,
             p.q0,
-            g.cfg.learner.kind.name(),
+            g.cfg.learner.kind().name(),
             rel.mean,
             rel.ci95,
             frac.mean,
