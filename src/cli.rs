@@ -107,15 +107,17 @@ pub struct RunArgs {
     /// mix of those.
     #[arg(long, default_value = "poisson:13")]
     pub delay: String,
-    /// Width of deconv-model-time's time bins, seconds (default 0.1).
+    /// Width of deconv-model-time's time bins, seconds (default 0.1). Only for that
+    /// learner: another learner refuses it.
     #[arg(long)]
     pub time_bin: Option<f64>,
-    /// λ̂max of MMQ (N = λ̂max + 1 models).
-    #[arg(long, default_value_t = 50)]
-    pub max_delay: usize,
-    /// λ̂ of the fixed-delay learner.
-    #[arg(long, default_value_t = 13)]
-    pub lambda_hat: usize,
+    /// λ̂max of the MMQ learners (N = λ̂max + 1 models), or the largest delay K the
+    /// deconvolving learners consider (default 50). Only for learners that have it.
+    #[arg(long)]
+    pub max_delay: Option<usize>,
+    /// λ̂ of the fixed-delay learner (default 13). Only for `fixed`.
+    #[arg(long)]
+    pub lambda_hat: Option<usize>,
     /// Learning rate α ∈ [0, 1].
     #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub alpha: f64,

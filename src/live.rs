@@ -30,7 +30,7 @@ pub fn start(
     out: &Path,
 ) -> Result<Option<LiveRun>, Failure> {
     let Some(addr) = addr else { return Ok(None) };
-    let name = format!("mmq run: {} on {}", cfg.learner.kind.name(), cfg.world.display());
+    let name = format!("mmq run: {} on {}", cfg.learner.kind().name(), cfg.world.display());
     let live = LiveRun::start(&config("--live", addr, speed, name)?, cfg, out, pose_rate_hz)?;
     eprintln!(
         "live view: ws://{} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {}",

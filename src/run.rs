@@ -15,19 +15,26 @@ use crate::{Failure, progress};
 /// Stage two of the flags: a validated configuration.
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
     let kind = LearnerKind::parse(&a.learner).map_err(|e| crate::input_error(format!("--learner: {e}")))?;
+    // Only the settings given are set; one the learner does not have is an error.
+    let given = [
+        ("max_delay", a.max_delay.map(|x| toml::Value::Integer(x.min(i64::MAX as usize) as i64))),
+        ("lambda_hat", a.lambda_hat.map(|x| toml::Value::Integer(x.min(i64::MAX as usize) as i64))),
+        ("time_bin_s", a.time_bin.map(toml::Value::Float)),
+    ];
+    let pairs: Vec<(&str, &toml::Value)> =
+        given.iter().filter_map(|(k, v)| v.as_ref().map(|v| (*k, v))).collect();
+    let base = LearnerSpec {
+        params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
+        ..LearnerSpec::new(kind)
+    };
+    let learner = mmq_lab::settings::with_settings(&base, &pairs)?;
     let cfg = RunConfig {
         world: a.world.clone(),
         env: match a.env {
             EnvArg::Grid => EnvKind::Grid,
             EnvArg::Robot => EnvKind::Robot,
         },
-        learner: LearnerSpec {
-            kind,
-            params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
-            lambda_hat: a.lambda_hat,
-            max_delay: a.max_delay,
-            beyond: mmq_learn::beyond::BeyondParams { time_bin_s: a.time_bin, ..Default::default() },
-        },
+        learner,
         delay: a.delay.clone(),
         steps: a.steps,
         seed: a.seed,
@@ -56,7 +63,7 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let live =
         crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
     let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
-    let pb = progress::bar(total, cfg.learner.kind.name(), a.quiet);
+    let pb = progress::bar(total, cfg.learner.kind().name(), a.quiet);
     let progress = |n: u64| pb.inc(n);
     let ctl = Control { stop, progress: &progress };
     let claimed = |replaced: usize| {

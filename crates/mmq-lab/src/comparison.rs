@@ -16,7 +16,6 @@ use std::path::PathBuf;
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
 use mmq_learn::DelayEstimate;
-use mmq_learn::beyond::BeyondParams;
 use mmq_learn::deconv::{pmf_mean, pmf_median, truncated_pmf};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 use serde::{Deserialize, Serialize};
@@ -199,11 +198,14 @@ pub fn settings() -> Vec<Setting> {
 /// The run configuration of a setting.
 pub fn config(o: &ComparisonOptions, s: &Setting) -> RunConfig {
     let params = Params { alpha: 0.1, gamma: 0.9, epsilon: s.epsilon, q0: 10.0 };
-    let beyond = BeyondParams { told_delay: s.told.then(|| s.delay.clone()), ..BeyondParams::default() };
+    let mut learner = LearnerSpec { params, ..LearnerSpec::new(s.learner) };
+    if let Some(d) = learner.settings.deconv_mut() {
+        d.told_delay = s.told.then(|| s.delay.clone());
+    }
     RunConfig {
         world: o.worlds.join(format!("{}.toml", s.world)),
         env: EnvKind::Grid,
-        learner: LearnerSpec { kind: s.learner, params, lambda_hat: 0, max_delay: 50, beyond },
+        learner,
         delay: s.delay.clone(),
         steps: o.steps,
         seed: o.seed,
@@ -499,7 +501,7 @@ mod tests {
         for s in &all {
             let c = config(&o, s);
             c.validate().unwrap();
-            assert_eq!(c.learner.beyond.told_delay.is_some(), s.told);
+            assert_eq!(c.learner.settings.deconv().is_some_and(|d| d.told_delay.is_some()), s.told);
         }
         for (_, spec) in OTHER_DELAYS {
             let (p, med, _) = truth(spec).unwrap();

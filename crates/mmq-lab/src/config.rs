@@ -158,7 +158,7 @@ impl RunConfig {
 
     /// The learner of the undelayed baseline: Q-learning with the same parameters.
     pub fn baseline_learner(&self) -> LearnerSpec {
-        LearnerSpec { kind: LearnerKind::Q, ..self.learner.clone() }
+        LearnerSpec { params: self.learner.params, ..LearnerSpec::new(LearnerKind::Q) }
     }
 
     /// Loads the world file.
@@ -177,10 +177,20 @@ impl RunConfig {
         toml::to_string_pretty(self).unwrap_or_else(|e| format!("# cannot serialise config: {e}\n"))
     }
 
-    /// Parses a configuration from TOML text; `file` names it in errors.
+    /// Parses a configuration from TOML text; `file` names it in errors. A `[learner]`
+    /// table in the flat layout of older recordings is read as its learner's own settings
+    /// ([`crate::settings::from_flat_layout`]); otherwise a `[learner.beyond]` table or a
+    /// setting the learner does not have is an error naming it and the fix.
     pub fn from_toml(text: &str, file: &str) -> Result<RunConfig, LabError> {
-        toml::from_str(text)
-            .map_err(|e| LabError::Config { file: file.into(), message: e.message().trim().into() })
+        let cannot = |message: String| LabError::Config { file: file.into(), message };
+        let mut table: toml::Table = toml::from_str(text).map_err(|e| cannot(e.message().trim().into()))?;
+        if let Some(toml::Value::Table(learner)) = table.get_mut("learner") {
+            if let Some(own) = crate::settings::from_flat_layout(learner) {
+                *learner = own;
+            }
+            crate::settings::check_learner_table(learner).map_err(|e| cannot(e.to_string()))?;
+        }
+        toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| cannot(e.message().trim().into()))
     }
 
     /// The master seeds of this run.
@@ -197,6 +207,47 @@ mod tests {
     fn round_trips_through_toml() {
         let c = RunConfig::default();
         assert_eq!(RunConfig::from_toml(&c.to_toml(), "c.toml").unwrap(), c);
+    }
+
+    /// A run's configuration lists its learner's settings only; the layout with every
+    /// learner's settings in `[learner.beyond]`, or a setting of another learner, is
+    /// refused with the field and the fix, never a panic.
+    #[test]
+    fn config_lists_the_learners_own_settings_and_refuses_others() {
+        let c = RunConfig::default();
+        let text = c.to_toml();
+        assert!(text.contains("[learner]\nkind = \"mmq\"\nmax_delay = 50\n"), "{text}");
+        for other in ["lasso", "lambda_hat", "trace_decay", "probe_rate", "kernel_width", "beyond"] {
+            assert!(!text.contains(other), "{other} in {text}");
+        }
+        for (k, ..) in mmq_learn::catalogue() {
+            let c = RunConfig { learner: LearnerSpec::new(k), ..RunConfig::default() };
+            assert_eq!(RunConfig::from_toml(&c.to_toml(), "c.toml").unwrap(), c);
+        }
+        // The flat layout older recordings carry reads as the learner's own settings.
+        let flat = text.replace("max_delay = 50\n", "lambda_hat = 13\nmax_delay = 12\n")
+            + "\n[learner.beyond]\ntrace_decay = 0.9\nlasso = 0.1\n";
+        let mut twelve = c.clone();
+        twelve.learner.settings =
+            mmq_learn::LearnerSettings::Mmq(mmq_learn::settings::MmqSettings { max_delay: 12 });
+        assert_eq!(RunConfig::from_toml(&flat, "c.toml").unwrap(), twelve);
+        // A `[learner.beyond]` table in the new layout is refused.
+        let old = text.clone() + "\n[learner.beyond]\ntrace_decay = 0.9\nlasso = 0.1\n";
+        let e = RunConfig::from_toml(&old, "c.toml").unwrap_err().to_string();
+        assert!(e.starts_with("c.toml: `learner.beyond`: a learner's settings sit in [learner]"), "{e}");
+        assert!(e.contains("(`mmq`: max_delay); delete the table"), "{e}");
+        let old = text.replace("max_delay = 50\n", "max_delay = 50\nlasso = 0.3\n");
+        let e = RunConfig::from_toml(&old, "c.toml").unwrap_err().to_string();
+        assert!(e.contains("`lasso`: learner `mmq` has no such setting; its settings are max_delay"), "{e}");
+        let dm = RunConfig { learner: LearnerSpec::new(LearnerKind::DeconvModel), ..RunConfig::default() };
+        let old =
+            dm.to_toml().replace("lasso = 0.1\n", "") + "\n[learner.beyond]\nlasso = 0.2\nkernel_width = 3\n";
+        let e = RunConfig::from_toml(&old, "c.toml").unwrap_err().to_string();
+        assert!(e.contains("move lasso into [learner] and delete the table"), "{e}");
+        // Malformed input is an error too.
+        for bad in ["learner = 3\n", "[learner]\nkind = 5\n", "[learner]\nkind = \"mmq\"\nbeyond = 1\n"] {
+            assert!(RunConfig::from_toml(bad, "c.toml").is_err(), "{bad}");
+        }
     }
 
     #[test]

@@ -24,6 +24,14 @@ pub enum LabError {
         /// What is accepted.
         accepted: String,
     },
+    /// A learner setting the chosen learner does not have, or of the wrong type.
+    #[error("`{field}`: {message}")]
+    Setting {
+        /// The setting, as the configuration names it.
+        field: String,
+        /// What is wrong and the fix.
+        message: String,
+    },
     /// A configuration file that cannot be read.
     #[error("{file}: {message}")]
     Config {
@@ -94,6 +102,7 @@ impl LabError {
         matches!(
             self,
             LabError::InvalidParam { .. }
+                | LabError::Setting { .. }
                 | LabError::EnvBuild(_)
                 | LabError::OutDirInUse { .. }
                 | LabError::Learner(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. })
@@ -108,6 +117,7 @@ impl LabError {
                 | LabError::Delay(_)
                 | LabError::Learner(_)
                 | LabError::InvalidParam { .. }
+                | LabError::Setting { .. }
                 | LabError::Config { .. }
                 | LabError::Spec { .. }
                 | LabError::OutDirInUse { .. }

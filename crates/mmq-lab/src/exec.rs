@@ -238,8 +238,8 @@ mod tests {
         let key = |c: &RunConfig| BaselineKey::of(c, 3);
         // Shared across what the undelayed Q-learning baseline ignores.
         let mut b = a.clone();
-        b.learner.kind = mmq_learn::LearnerKind::Mmq;
-        b.learner.max_delay = 7;
+        b.learner.settings =
+            mmq_learn::LearnerSettings::Mmq(mmq_learn::settings::MmqSettings { max_delay: 7 });
         b.delay = "poisson:5".into();
         assert_eq!(key(&a), key(&b));
         // Not shared across anything it depends on.
@@ -269,7 +269,7 @@ mod tests {
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
         let mut other = c.clone();
-        other.learner.kind = mmq_learn::LearnerKind::Mmq;
+        other.learner.settings = mmq_learn::LearnerSettings::of(mmq_learn::LearnerKind::Mmq);
         let jobs = [
             Job { cfg: &c, world: &world, dist: &dist, seed: 5 },
             Job { cfg: &other, world: &world, dist: &dist, seed: 5 },

@@ -16,6 +16,7 @@ pub mod output;
 pub mod paper;
 pub mod record;
 pub mod runner;
+pub mod settings;
 pub mod summary;
 pub mod sweep;
 

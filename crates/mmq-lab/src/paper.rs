@@ -243,13 +243,13 @@ pub fn sensitivity_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError>
     let grid = PaperOptions { env: EnvKind::Grid, ..o.clone() };
     let mut v = spec_configs(&grid, "paper-sensitivity")?;
     v.extend(spec_configs(&grid, "paper-fig6")?);
-    let order: Vec<LearnerKind> = v.iter().map(|c| c.learner.kind).fold(Vec::new(), |mut seen, k| {
+    let order: Vec<LearnerKind> = v.iter().map(|c| c.learner.kind()).fold(Vec::new(), |mut seen, k| {
         if !seen.contains(&k) {
             seen.push(k);
         }
         seen
     });
-    let rank = |c: &RunConfig| order.iter().position(|&k| k == c.learner.kind);
+    let rank = |c: &RunConfig| order.iter().position(|&k| k == c.learner.kind());
     v.sort_by(|a, b| {
         let (pa, pb) = (a.learner.params, b.learner.params);
         pa.q0.total_cmp(&pb.q0).then(pb.epsilon.total_cmp(&pa.epsilon)).then(rank(a).cmp(&rank(b)))

@@ -199,7 +199,7 @@ pub fn check_tables_fit(cfg: &RunConfig, world: &World, limit: u128) -> Result<u
     let (entries, bytes) = cfg.learner.table_bytes(n_s, n_a);
     if bytes > limit {
         return Err(mmq_learn::LearnError::TooLarge {
-            learner: cfg.learner.kind.name(),
+            learner: cfg.learner.kind().name(),
             entries,
             need_gib: bytes as f64 / (1u128 << 30) as f64,
             limit_gib: limit as f64 / (1u128 << 30) as f64,
@@ -274,7 +274,7 @@ pub fn run_seed_on<E: Env + Telemetry>(
         observer.as_mut(),
         ctl,
         Some((&config_toml, &facts)),
-        cfg.learner.kind.name(),
+        cfg.learner.kind().name(),
     )?;
     let learn_s = learn_clock.elapsed().as_secs_f64();
     let complete = run.steps_done == cfg.steps;
@@ -663,21 +663,7 @@ pub fn optimum_of(world: &World) -> Optimum {
 
 /// A spec of the learner, for reports.
 pub fn describe(spec: &LearnerSpec) -> String {
-    let p = spec.params;
-    format!(
-        "{} (α = {}, γ = {}, ε = {}, q0 = {}{})",
-        spec.kind.name(),
-        p.alpha,
-        p.gamma,
-        p.epsilon,
-        p.q0,
-        match spec.kind {
-            mmq_learn::LearnerKind::Fixed => format!(", λ̂ = {}", spec.lambda_hat),
-            mmq_learn::LearnerKind::Mmq | mmq_learn::LearnerKind::MmqReference =>
-                format!(", λ̂max = {}", spec.max_delay),
-            _ => String::new(),
-        }
-    )
+    spec.describe()
 }
 
 #[cfg(test)]
@@ -726,8 +712,9 @@ mod tests {
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
         let run = |kind: mmq_learn::LearnerKind, steps: u64| {
-            let mut c = RunConfig { steps, ..cfg.clone() };
-            c.learner.kind = kind;
+            let learner =
+                mmq_learn::LearnerSpec { params: cfg.learner.params, ..mmq_learn::LearnerSpec::new(kind) };
+            let c = RunConfig { steps, learner, ..cfg.clone() };
             run_seed(&c, &world, &dist, 3, None, ctl, u128::MAX).unwrap()
         };
         for kind in [mmq_learn::LearnerKind::Mmq, mmq_learn::LearnerKind::DeconvModel] {
@@ -741,7 +728,8 @@ mod tests {
                 assert_ne!(*sample, run(kind, every - 1).diagnostics);
             } else {
                 let delay = sample.delay.as_ref().expect("deconv-model estimates the delay");
-                assert!(delay.estimated && delay.pmf.len() == cfg.learner.max_delay + 1);
+                let max_delay = mmq_learn::LearnerSpec::new(kind).settings.max_delay();
+                assert!(delay.estimated && Some(delay.pmf.len()) == max_delay.map(|k| k + 1));
             }
         }
     }

@@ -45,7 +45,7 @@ fn the_figures_hold_the_settings_the_paper_states() {
     let f2 = paper::fig2_configs(&o).unwrap();
     let delays: Vec<String> = (0..=20).map(|l| format!("poisson:{l}")).collect();
     assert_eq!(f2.iter().map(|c| c.delay.clone()).collect::<Vec<_>>(), delays);
-    assert!(f2.iter().all(|c| world(c) == "paper-3x3" && c.learner.kind == LearnerKind::Q));
+    assert!(f2.iter().all(|c| world(c) == "paper-3x3" && c.learner.kind() == LearnerKind::Q));
     assert!(f2.iter().all(|c| eps_q0(c) == (0.05, 10.0)));
     // Fig. 3: Poisson(5) on the three worlds, smallest first.
     let f3 = paper::fig3_configs(&o).unwrap();
@@ -53,17 +53,24 @@ fn the_figures_hold_the_settings_the_paper_states() {
     assert!(f3.iter().all(|c| c.delay == "poisson:5"));
     // Fig. 4: the fixed-delay learner with λ̂ = 17 − 10 … 17 + 10 under Poisson(17).
     let f4 = paper::fig4_configs(&o).unwrap();
-    assert_eq!(f4.iter().map(|c| c.learner.lambda_hat).collect::<Vec<_>>(), (7..=27).collect::<Vec<_>>());
-    assert!(f4.iter().all(|c| c.learner.kind == LearnerKind::Fixed && c.delay == "poisson:17"));
+    let lambda_hats: Vec<usize> = f4
+        .iter()
+        .map(|c| match &c.learner.settings {
+            mmq_learn::LearnerSettings::Fixed(f) => f.lambda_hat,
+            s => panic!("Fig. 4 runs the fixed-delay learner, not {s:?}"),
+        })
+        .collect();
+    assert_eq!(lambda_hats, (7..=27).collect::<Vec<_>>());
+    assert!(f4.iter().all(|c| c.learner.kind() == LearnerKind::Fixed && c.delay == "poisson:17"));
     // Fig. 6: MMQ and Q-learning on 9×9, Poisson(13), λ̂max 50, on the grid and the robot.
     for (env, seeds) in [(EnvKind::Grid, 20), (EnvKind::Robot, 5)] {
         let f6 = paper::fig6_configs(&PaperOptions::new(false, env)).unwrap();
-        let kinds: Vec<LearnerKind> = f6.iter().map(|c| c.learner.kind).collect();
+        let kinds: Vec<LearnerKind> = f6.iter().map(|c| c.learner.kind()).collect();
         assert_eq!(kinds, [LearnerKind::Mmq, LearnerKind::Q]);
         for c in &f6 {
             assert_eq!(
-                (world(c), c.delay.as_str(), c.learner.max_delay),
-                ("paper-9x9".into(), "poisson:13", 50)
+                (world(c), c.delay.as_str(), c.learner.settings.max_delay()),
+                ("paper-9x9".into(), "poisson:13", (c.learner.kind() == LearnerKind::Mmq).then_some(50))
             );
             assert_eq!((c.env, c.seeds, c.steps, c.window), (env, seeds, 150_000, 2500));
             assert_eq!(eps_q0(c), (0.01, 20.0));
@@ -72,7 +79,7 @@ fn the_figures_hold_the_settings_the_paper_states() {
     // The sensitivity table: from the most exploring setting to Fig. 6's, MMQ then Q.
     let s = paper::sensitivity_configs(&o).unwrap();
     let rows: Vec<(f64, f64, LearnerKind)> =
-        s.iter().map(|c| (eps_q0(c).0, eps_q0(c).1, c.learner.kind)).collect();
+        s.iter().map(|c| (eps_q0(c).0, eps_q0(c).1, c.learner.kind())).collect();
     use LearnerKind::{Mmq, Q};
     assert_eq!(
         rows,
@@ -96,6 +103,6 @@ fn a_smaller_budget_scales_every_figure_alike() {
     assert_eq!((f6[0].steps, f6[0].window, f6[0].seeds, f6[0].seed), (30_000, 1000, 6, 7));
     // The horizon study runs four times Fig. 6's horizon at any budget.
     assert_eq!((h[0].steps, h[0].window, h[0].seeds), (120_000, 4000, 6));
-    assert_eq!(h[0].learner.kind, LearnerKind::Mmq);
+    assert_eq!(h[0].learner.kind(), LearnerKind::Mmq);
     assert!(paper::spec_configs(&o, "paper-fig5").is_err());
 }

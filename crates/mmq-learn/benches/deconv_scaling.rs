@@ -46,9 +46,8 @@ fn run(spec: &LearnerSpec, w: &World) -> f64 {
 
 fn bench(c: &mut Criterion) {
     let spec = LearnerSpec {
-        kind: LearnerKind::DeconvModel,
         params: mmq_learn::spec::Params { epsilon: 0.05, q0: 10.0, ..Default::default() },
-        ..LearnerSpec::default()
+        ..LearnerSpec::new(LearnerKind::DeconvModel)
     };
     let mut g = c.benchmark_group("deconv-model-scaling");
     g.throughput(Throughput::Elements(STEPS));

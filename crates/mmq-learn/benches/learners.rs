@@ -56,7 +56,7 @@ fn learn<L: Learner + ?Sized>(learner: &mut L, w: &World, steps: u64) -> f64 {
 
 /// A fresh learner of `kind` as the runner builds it, then `steps` steps.
 fn run(kind: LearnerKind, w: &World, steps: u64) -> f64 {
-    let spec = LearnerSpec { kind, ..LearnerSpec::default() };
+    let spec = LearnerSpec::new(kind);
     let mut learner = spec.build(w.num_cells(), 4, 1 << 30).unwrap();
     learn(&mut *learner, w, steps)
 }
@@ -91,7 +91,16 @@ fn bench(c: &mut Criterion) {
     g.bench_function("q", |b| b.iter(|| learn(&mut QLearning::new(p, w.num_cells(), 4), &w, STEPS)));
     g.bench_function("mmq", |b| {
         b.iter(|| {
-            learn(&mut MultipleModelQ::new(p, LearnerSpec::default().max_delay, w.num_cells(), 4), &w, STEPS)
+            learn(
+                &mut MultipleModelQ::new(
+                    p,
+                    mmq_learn::settings::MmqSettings::default().max_delay,
+                    w.num_cells(),
+                    4,
+                ),
+                &w,
+                STEPS,
+            )
         })
     });
     g.finish();
@@ -114,7 +123,12 @@ fn main() {
         let earned = match name {
             "static-q" => learn(&mut QLearning::new(p, w.num_cells(), 4), &w, steps),
             "static-mmq" => learn(
-                &mut MultipleModelQ::new(p, LearnerSpec::default().max_delay, w.num_cells(), 4),
+                &mut MultipleModelQ::new(
+                    p,
+                    mmq_learn::settings::MmqSettings::default().max_delay,
+                    w.num_cells(),
+                    4,
+                ),
                 &w,
                 steps,
             ),

@@ -7,7 +7,7 @@
 //! matters for the delay estimate: the goal's rewards come at a near-constant period, so
 //! a delay k and k + period explain them alike, while the wall bumps that exploration
 //! causes come at irregular times and tell the delays apart
-//! (docs/algorithms/beyond.md, "Delay estimate").
+//! (docs/algorithms/deconvolution.md, "Delay estimate").
 //!
 //! The values are found from the deliveries themselves: a non-zero delivered value seen
 //! often enough ([`MIN_SEEN`] times and 1 % of the non-zero deliveries), most frequent

@@ -7,8 +7,8 @@
 //! | `fixed` | [`fixed_delay`] | eq. (4) |
 //! | `mmq` | [`mmq`] (fast) / [`mmq_reference`] (plain transcription) | Algorithm 1, eqs. (5)–(7) |
 //! | `mmq-kernel` | [`mmq_kernel`] | Algorithm 1 with kernel credit around the leading model (the paper's future work) and other bootstraps |
-//! | `q-lambda` | [`q_lambda`] | Watkins's Q(λ) (beyond the paper, issue 8) |
-//! | `sarsa-lambda` | [`sarsa_lambda`] | SARSA(λ) (beyond the paper) |
+//! | `q-lambda` | [`q_lambda`] | Watkins's Q(λ) |
+//! | `sarsa-lambda` | [`sarsa_lambda`] | SARSA(λ) |
 //! | `oracle` | [`oracle`] | true credit from the channel's ledger: an upper bound, no real agent |
 //! | `deconv-q` | [`deconv_q`] + [`deconv`] | Q-learning on deconvolved rewards, delay pmf estimated |
 //! | `deconv-model` | [`deconv_model`] + [`deconv`] | counted model + deconvolved rewards + value iteration |
@@ -17,7 +17,6 @@
 //! Architecture invariant: learners know no environment, no physics, no log format;
 //! exploration randomness comes in from the caller's stream.
 
-pub mod beyond;
 pub mod decode;
 pub mod deconv;
 pub mod deconv_model;
@@ -33,10 +32,12 @@ pub mod policy;
 pub mod q_lambda;
 pub mod qlearning;
 pub mod sarsa_lambda;
+pub mod settings;
 pub mod spec;
 pub mod table;
 
 pub use diagnostics::{DelayEstimate, Diagnostics};
+pub use settings::LearnerSettings;
 pub use spec::{LearnError, LearnerKind, LearnerSpec, build, catalogue};
 
 use mmq_core::{Action, Rng, State};

@@ -31,7 +31,7 @@ use crate::policy::argmax_random_tie;
 use crate::spec::Params;
 use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
 
-/// Where the target's max looks (`bootstrap` in `[beyond]`).
+/// Where the target's max looks (the `bootstrap` setting).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Bootstrap {

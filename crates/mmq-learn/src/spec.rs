@@ -1,19 +1,11 @@
-//! Learner selection and hyper-parameters: one documented field each, with the paper's
-//! defaults where it states them, validated before anything is allocated.
+//! Learner selection: the catalogue of learners, the shared hyper-parameters, and
+//! [`LearnerSpec`], a learner with its own settings ([`crate::settings`]), validated
+//! before anything is allocated.
 
 use serde::{Deserialize, Serialize};
 
 use crate::Learner;
-use crate::beyond::BeyondParams;
-use crate::deconv_model::DeconvModel;
-use crate::deconv_q::DeconvQ;
-use crate::fixed_delay::FixedDelayQ;
-use crate::mmq::MultipleModelQ;
-use crate::mmq_reference::MmqReference;
-use crate::oracle::Oracle;
-use crate::q_lambda::QLambda;
-use crate::qlearning::QLearning;
-use crate::sarsa_lambda::SarsaLambda;
+use crate::settings::LearnerSettings;
 
 /// Hyper-parameters shared by the tabular learners.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -136,33 +128,22 @@ impl LearnerKind {
     }
 }
 
-/// A fully specified learner.
+/// A fully specified learner: its own settings, tagged by `kind`, and the shared
+/// parameters. In a configuration: `kind = "mmq"`, the learner's settings
+/// (`max_delay = 50`) and a `[params]` table; a setting the learner does not have is
+/// refused by name.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
 pub struct LearnerSpec {
-    /// Which learner.
-    pub kind: LearnerKind,
+    /// Which learner, with its own settings.
+    #[serde(flatten)]
+    pub settings: LearnerSettings,
     /// Shared hyper-parameters.
     pub params: Params,
-    /// λ̂ of the fixed-delay learner, steps.
-    pub lambda_hat: usize,
-    /// λ̂max of MMQ, steps (N = λ̂max + 1 models; paper: 50); also the largest delay the
-    /// deconvolving learners consider (`deconv-model-time`: in time bins).
-    pub max_delay: usize,
-    /// Parameters of the learners beyond the paper (traces, deconvolution).
-    #[serde(default)]
-    pub beyond: BeyondParams,
 }
 
 impl Default for LearnerSpec {
     fn default() -> Self {
-        Self {
-            kind: LearnerKind::Mmq,
-            params: Params::default(),
-            lambda_hat: 13,
-            max_delay: 50,
-            beyond: BeyondParams::default(),
-        }
+        Self::new(LearnerKind::Mmq)
     }
 }
 
@@ -204,6 +185,30 @@ pub enum LearnError {
 }
 
 impl LearnerSpec {
+    /// Learner `kind` with its default settings and the default shared parameters.
+    pub fn new(kind: LearnerKind) -> Self {
+        Self { settings: LearnerSettings::of(kind), params: Params::default() }
+    }
+
+    /// Which learner.
+    pub fn kind(&self) -> LearnerKind {
+        self.settings.kind()
+    }
+
+    /// The learner's name, its shared parameters and its own settings, for reports.
+    pub fn describe(&self) -> String {
+        let p = self.params;
+        format!(
+            "{} (α = {}, γ = {}, ε = {}, q0 = {}{})",
+            self.kind().name(),
+            p.alpha,
+            p.gamma,
+            p.epsilon,
+            p.q0,
+            self.settings.describe()
+        )
+    }
+
     /// Checks every parameter's domain.
     pub fn validate(&self) -> Result<(), LearnError> {
         let p = &self.params;
@@ -222,35 +227,13 @@ impl LearnerSpec {
         if !p.q0.is_finite() || p.q0.abs() > 1e12 {
             return bad("q0", p.q0, "use a finite initial value, e.g. 10");
         }
-        crate::beyond::validate(self)
+        self.settings.validate()
     }
 
-    /// Bytes of the tables for `num_states` × `num_actions` (exact for the big tables).
+    /// Entries and bytes of the tables for `num_states` × `num_actions` (exact for the
+    /// big tables).
     pub fn table_bytes(&self, num_states: usize, num_actions: usize) -> (u128, u128) {
-        let sa = num_states as u128 * num_actions as u128;
-        let entries = match self.kind {
-            LearnerKind::Q => sa,
-            LearnerKind::Fixed => sa + self.lambda_hat as u128,
-            LearnerKind::Mmq | LearnerKind::MmqReference | LearnerKind::MmqKernel => {
-                sa * (self.max_delay as u128 + 1)
-            }
-            LearnerKind::QLambda | LearnerKind::SarsaLambda | LearnerKind::Oracle => sa,
-            // Q, R̂ and the lagged reward sums of every pair (worst case: all pairs
-            // visited), once per reward value when decoding (worst case: MAX_VALUES of
-            // them); the sparse co-occurrence counts grow with the run instead (at most
-            // 16 bytes × (K + 1) per step, docs/performance.md).
-            LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime => {
-                let sa = if self.kind == LearnerKind::DeconvModelTime {
-                    sa + num_actions as u128 // the idle state
-                } else {
-                    sa
-                };
-                let copies = if self.beyond.decode_values { crate::decode::MAX_VALUES as u128 } else { 1 };
-                2 * sa
-                    + copies
-                        * crate::deconv::Deconvolver::stats_bytes(sa as usize, self.max_delay).div_ceil(8)
-            }
-        };
+        let entries = self.settings.table_entries(num_states, num_actions);
         (entries, entries * 8 + num_states as u128 * 12)
     }
 
@@ -263,12 +246,10 @@ impl LearnerSpec {
         limit_bytes: u128,
     ) -> Result<Box<dyn Learner>, LearnError> {
         self.validate()?;
-        let deconv = matches!(
-            self.kind,
-            LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime
-        );
         // deconv-model-time adds an idle state.
-        if deconv && (num_states + 1).saturating_mul(num_actions) > crate::deconv::MAX_PAIRS {
+        if self.settings.deconv().is_some()
+            && (num_states + 1).saturating_mul(num_actions) > crate::deconv::MAX_PAIRS
+        {
             return Err(LearnError::InvalidParam {
                 field: "world",
                 value: format!("{num_states} cells × {num_actions} actions"),
@@ -278,70 +259,13 @@ impl LearnerSpec {
         let (entries, bytes) = self.table_bytes(num_states, num_actions);
         if bytes > limit_bytes {
             return Err(LearnError::TooLarge {
-                learner: self.kind.name(),
+                learner: self.kind().name(),
                 entries,
                 need_gib: bytes as f64 / (1u128 << 30) as f64,
                 limit_gib: limit_bytes as f64 / (1u128 << 30) as f64,
             });
         }
-        let p = self.params;
-        Ok(match self.kind {
-            LearnerKind::Q => Box::new(QLearning::new(p, num_states, num_actions)),
-            LearnerKind::Fixed => Box::new(FixedDelayQ::new(p, self.lambda_hat, num_states, num_actions)),
-            LearnerKind::Mmq => Box::new(MultipleModelQ::new(p, self.max_delay, num_states, num_actions)),
-            LearnerKind::MmqReference => {
-                Box::new(MmqReference::new(p, self.max_delay, num_states, num_actions))
-            }
-            LearnerKind::MmqKernel => Box::new(crate::mmq_kernel::KernelMmq::new(
-                p,
-                self.max_delay,
-                self.beyond.kernel_width,
-                self.beyond.bootstrap,
-                num_states,
-                num_actions,
-            )),
-            LearnerKind::QLambda => {
-                Box::new(QLambda::new(p, self.beyond.trace_decay, num_states, num_actions))
-            }
-            LearnerKind::SarsaLambda => {
-                Box::new(SarsaLambda::new(p, self.beyond.trace_decay, num_states, num_actions))
-            }
-            LearnerKind::Oracle => Box::new(Oracle::new(p, num_states, num_actions)),
-            LearnerKind::DeconvQ => Box::new(DeconvQ::new(
-                p,
-                crate::beyond::deconv_config(self)?,
-                self.beyond.replay_lag,
-                num_states,
-                num_actions,
-            )),
-            LearnerKind::DeconvModel => {
-                let l = DeconvModel::new(
-                    p,
-                    crate::beyond::deconv_config(self)?,
-                    self.beyond.optimism_visits,
-                    crate::deconv_model::Probes {
-                        rate: self.beyond.probe_rate,
-                        precision: self.beyond.probe_precision,
-                    },
-                    num_states,
-                    num_actions,
-                );
-                let z = self.beyond.optimism_confidence;
-                Box::new(if z > 0.0 { l.with_confidence(z) } else { l })
-            }
-            LearnerKind::DeconvModelTime => Box::new(crate::deconv_model_time::DeconvModelTime::new(
-                p,
-                crate::beyond::deconv_config(self)?,
-                self.beyond.optimism_visits,
-                crate::deconv_model::Probes {
-                    rate: self.beyond.probe_rate,
-                    precision: self.beyond.probe_precision,
-                },
-                self.beyond.time_bin(),
-                num_states,
-                num_actions,
-            )),
-        })
+        self.settings.build(self.params, num_states, num_actions)
     }
 }
 
@@ -358,6 +282,7 @@ pub fn build(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::settings::{DeconvModelSettings, KernelSettings};
 
     #[test]
     fn refuses_impossible_parameters_and_huge_tables() {
@@ -368,23 +293,51 @@ mod tests {
         s.params.epsilon = f64::NAN;
         assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("`epsilon`"));
         s.params.epsilon = 0.1;
-        s.beyond.joint_test = f64::NAN;
-        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("joint_test"));
-        s.beyond.joint_test = 1.0;
-        s.beyond.kernel_width = 0.0;
-        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("kernel_width"));
-        s.beyond.kernel_width = f64::INFINITY;
-        s.beyond.pmf_smoothness = -1.0;
-        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("pmf_smoothness"));
-        s.beyond.pmf_smoothness = 0.0;
-        s.beyond.probe_rate = 1.5;
-        let e = s.build(81, 4, 1 << 30).unwrap_err().to_string();
-        assert!(e.contains("probe_rate") && e.contains("[0, 1]"), "{e}");
-        s.beyond.probe_rate = 0.02;
-        s.beyond.probe_precision = 0.0;
-        assert!(s.build(81, 4, 1 << 30).unwrap_err().to_string().contains("probe_precision"));
-        s.beyond.probe_precision = 0.5;
-        s.max_delay = 1_000_000_000;
+        let mut m = DeconvModelSettings::default();
+        m.deconv.joint_test = f64::NAN;
+        let e = |settings: &LearnerSettings| {
+            LearnerSpec { settings: settings.clone(), params: s.params }
+                .build(81, 4, 1 << 30)
+                .unwrap_err()
+                .to_string()
+        };
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("joint_test"));
+        m.deconv.joint_test = 1.0;
+        m.deconv.pmf_smoothness = -1.0;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_smoothness"));
+        m.deconv.pmf_smoothness = 0.0;
+        m.explore.probe_rate = 1.5;
+        let msg = e(&LearnerSettings::DeconvModel(m.clone()));
+        assert!(msg.contains("probe_rate") && msg.contains("[0, 1]"), "{msg}");
+        m.explore.probe_rate = 0.02;
+        m.explore.probe_precision = 0.0;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("probe_precision"));
+        m.explore.probe_precision = 0.5;
+        m.optimism_confidence = -2.0;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("optimism_confidence"));
+        m.optimism_confidence = 0.0;
+        m.deconv.told_delay = Some("exponential:4s".into());
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("give it in steps"));
+        m.deconv.told_delay = Some("poisson:13".into());
+        m.deconv.max_delay = 70_000;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("at most 65536"));
+        let k = KernelSettings { kernel_width: 0.0, ..KernelSettings::default() };
+        assert!(e(&LearnerSettings::MmqKernel(k)).contains("kernel_width"));
+        let mut t = LearnerSettings::of(LearnerKind::DeconvModelTime);
+        if let LearnerSettings::DeconvModelTime(x) = &mut t {
+            x.time_bin_s = 0.0;
+        }
+        assert!(e(&t).contains("time_bin_s"));
+        let mut q = LearnerSettings::of(LearnerKind::QLambda);
+        if let LearnerSettings::QLambda(x) = &mut q {
+            x.trace_decay = 1.5;
+        }
+        assert!(e(&q).contains("trace_decay"));
+        // Every default is valid.
+        for (k, ..) in catalogue() {
+            LearnerSpec::new(k).validate().unwrap();
+        }
+        s.settings = LearnerSettings::Mmq(crate::settings::MmqSettings { max_delay: 1_000_000_000 });
         let e = s.build(81, 4, 8 << 30).unwrap_err().to_string();
         assert!(e.contains("`max_delay`") && e.contains("GiB"), "{e}");
         assert!(
@@ -392,6 +345,70 @@ mod tests {
         );
         for (k, name, _) in catalogue() {
             assert_eq!(LearnerKind::parse(name).unwrap(), k);
+            assert_eq!(LearnerSettings::of(k).kind(), k);
         }
+    }
+
+    /// Table sizes by hand: Q is |S||A|, fixed adds its λ̂-step history, MMQ has λ̂max + 1
+    /// tables, and `deconv-model-time` counts an idle state more than `deconv-model`.
+    #[test]
+    fn each_learner_counts_its_own_tables() {
+        let entries = |k| LearnerSpec::new(k).table_bytes(81, 4).0;
+        assert_eq!(entries(LearnerKind::Q), 324);
+        assert_eq!(entries(LearnerKind::Fixed), 324 + 13);
+        assert_eq!(entries(LearnerKind::Mmq), 324 * 51);
+        assert_eq!(entries(LearnerKind::MmqKernel), 324 * 51);
+        assert_eq!(entries(LearnerKind::SarsaLambda), 324);
+        assert!(entries(LearnerKind::DeconvModelTime) > entries(LearnerKind::DeconvModel));
+        assert_eq!(entries(LearnerKind::DeconvQ), entries(LearnerKind::DeconvModel));
+        assert_eq!(LearnerSpec::new(LearnerKind::Q).table_bytes(81, 4).1, 324 * 8 + 81 * 12);
+    }
+
+    /// A configuration lists the learner's own settings only, and a setting of another
+    /// learner is refused by name.
+    #[test]
+    fn each_learner_serialises_and_accepts_only_its_own_settings() {
+        let text = |k| toml::to_string(&LearnerSpec::new(k)).unwrap();
+        let mmq = text(LearnerKind::Mmq);
+        assert!(mmq.starts_with("kind = \"mmq\"\nmax_delay = 50\n"), "{mmq}");
+        assert!(
+            !mmq.contains("lasso") && !mmq.contains("lambda_hat") && !mmq.contains("trace_decay"),
+            "{mmq}"
+        );
+        let q = text(LearnerKind::Q);
+        assert!(q.starts_with("kind = \"q\"\n\n[params]"), "{q}");
+        let dm = text(LearnerKind::DeconvModel);
+        assert!(
+            dm.contains("lasso = 0.1") && dm.contains("probe_rate") && !dm.contains("replay_lag"),
+            "{dm}"
+        );
+        assert!(!dm.contains("time_bin_s") && !dm.contains("kernel_width"), "{dm}");
+        for (k, ..) in catalogue() {
+            let back: LearnerSpec = toml::from_str(&text(k)).unwrap();
+            assert_eq!(back, LearnerSpec::new(k));
+        }
+        let params = "[params]\nalpha = 0.1\ngamma = 0.9\nepsilon = 0.01\nq0 = 20.0\n";
+        let parse = |head: &str| toml::from_str::<LearnerSpec>(&format!("{head}{params}"));
+        let e = parse("kind = \"mmq\"\nlasso = 0.2\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `lasso`"), "{e}");
+        let e = parse("kind = \"q\"\nmax_delay = 5\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `max_delay`"), "{e}");
+        let e = parse("kind = \"deconv-q\"\nprobe_rate = 0.1\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `probe_rate`"), "{e}");
+        let e = parse("kind = \"deconv-model\"\ntime_bin_s = 1.0\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `time_bin_s`"), "{e}");
+        let e = parse("kind = \"fixed\"\nmax_delay = 5\n").unwrap_err().to_string();
+        assert!(e.contains("unknown field `max_delay`"), "{e}");
+        // Missing settings take their defaults; given ones land where the learner reads them.
+        let s =
+            parse("kind = \"deconv-model-time\"\ntime_bin_s = 1\nlasso = 0.3\nmax_delay = 200\n").unwrap();
+        match &s.settings {
+            LearnerSettings::DeconvModelTime(t) => {
+                assert_eq!((t.time_bin_s, t.deconv.lasso, t.deconv.max_delay), (1.0, 0.3, 200));
+                assert_eq!(t.explore.probe_rate, 0.02);
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(parse("kind = \"fixed\"\nlambda_hat = 7\n").unwrap().settings.describe(), ", λ̂ = 7");
     }
 }

@@ -31,62 +31,28 @@ pub fn kwarg_names(msg: &str) -> String {
     mmq_lab::fields::as_names(&out)
 }
 
-/// The shared parameters live in `params`, the paper's λ̂ and λ̂max at the top, everything
-/// else in `beyond`.
-fn setting_path(key: &str) -> Vec<&str> {
-    match key {
-        "alpha" | "gamma" | "epsilon" | "q0" => vec!["params", key],
-        "lambda_hat" | "max_delay" => vec![key],
-        _ => vec!["beyond", key],
-    }
-}
-
-/// A learner spec from a name and keyword settings (every field of the CLI's learner
-/// configuration, by its config name).
+/// A learner spec from a name and keyword settings: the shared parameters (`alpha`,
+/// `gamma`, `epsilon`, `q0`) and the learner's own settings, by their config names; a
+/// setting the learner does not have is an error naming it.
 pub fn learner_spec(name: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResult<LearnerSpec> {
     let kind = LearnerKind::parse(name).map_err(|e| config_err("learner", e))?;
-    let base = LearnerSpec { kind, ..LearnerSpec::default() };
-    let mut value = toml::Value::try_from(&base).map_err(|e| config_err("learner", e))?;
+    let mut pairs: Vec<(String, toml::Value)> = Vec::new();
     if let Some(settings) = settings {
         for (k, v) in settings.iter() {
             let key: String = k.extract()?;
-            let path = setting_path(&key);
-            let mut t =
-                value.as_table_mut().ok_or_else(|| config_err("learner", "internal: spec is no table"))?;
-            for p in &path[..path.len() - 1] {
-                t = t
-                    .entry((*p).to_string())
-                    .or_insert_with(|| toml::Value::Table(toml::Table::new()))
-                    .as_table_mut()
-                    .ok_or_else(|| config_err(&key, "internal: not a table"))?;
-            }
-            let known = t.contains_key(&key);
-            if !known {
-                return Err(config_err(
-                    &key,
-                    format!(
-                        "unknown learner setting; use alpha, gamma, epsilon, q0, lambda_hat, max_delay or a field of the learner's parameters ({})",
-                        t.keys().cloned().collect::<Vec<_>>().join(", ")
-                    ),
-                ));
-            }
-            // Integers are accepted for float fields (alpha=1), as the CLI does.
-            let mut v = to_toml(&key, &v)?;
-            if let (Some(toml::Value::Float(_)), toml::Value::Integer(i)) = (t.get(&key), &v) {
-                v = toml::Value::Float(*i as f64);
-            }
-            t.insert(key, v);
+            let v = to_toml(&key, &v)?;
+            pairs.push((key, v));
         }
     }
-    let spec: LearnerSpec = value.try_into().map_err(|e: toml::de::Error| {
-        config_err("settings", format!("{}; check the types of the settings", e.message().trim()))
-    })?;
-    spec.validate().map_err(|e| {
-        let msg = kwarg_names(&e.to_string());
-        let field = msg.split_whitespace().next().unwrap_or("settings").to_string();
-        config_err(&field, msg)
-    })?;
-    Ok(spec)
+    let refs: Vec<(&str, &toml::Value)> = pairs.iter().map(|(k, v)| (k.as_str(), v)).collect();
+    mmq_lab::settings::with_settings(&LearnerSpec::new(kind), &refs).map_err(|e| match &e {
+        mmq_lab::LabError::Setting { field, message } => config_err(field, kwarg_names(message)),
+        _ => {
+            let msg = kwarg_names(&e.to_string());
+            let field = msg.split_whitespace().next().unwrap_or("settings").to_string();
+            config_err(&field, msg)
+        }
+    })
 }
 
 /// A learner driven from Python.

@@ -62,6 +62,25 @@ def test_learner_settings():
         lr.observe(0, 4, 0.0, 1)
 
 
+def test_each_learner_takes_only_its_own_settings():
+    # Each learner's own settings are accepted by name ...
+    mmq.Learner("mmq", 9, 4, max_delay=5, alpha=1)
+    mmq.Learner("fixed", 9, 4, lambda_hat=3)
+    mmq.Learner("q-lambda", 9, 4, trace_decay=0.5)
+    mmq.Learner("deconv-q", 9, 4, lasso=0.2, max_delay=10, told_delay="poisson:3")
+    # ... another learner's are refused with the learners that have them.
+    with pytest.raises(mmq.ConfigError, match="max_delay: learner `q` has no such setting") as e:
+        mmq.Learner("q", 9, 4, max_delay=5)
+    assert "mmq-kernel" in str(e.value)
+    with pytest.raises(mmq.ConfigError, match="lasso: learner `mmq` has no such setting") as e:
+        mmq.Learner("mmq", 9, 4, lasso=0.2)
+    assert "its settings are max_delay" in str(e.value)
+    with pytest.raises(mmq.ConfigError, match="trace_decay"):
+        mmq.Learner("q-lambda", 9, 4, trace_decay=1.5)
+    with pytest.raises(mmq.ConfigError, match="lambda_hat"):
+        mmq.run("paper-3x3", learner="mmq", steps=10, lambda_hat=3)
+
+
 def test_run_arguments(tmp_path):
     with pytest.raises(mmq.ConfigError, match="steps"):
         mmq.run("paper-3x3", steps=0)

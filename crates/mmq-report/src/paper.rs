@@ -448,7 +448,7 @@ fn sensitivity(
         let p = g.cfg.learner.params;
         let r = refs
             .iter()
-            .find(|r| (r.0, r.1, r.2) == (p.epsilon, p.q0, g.cfg.learner.kind))
+            .find(|r| (r.0, r.1, r.2) == (p.epsilon, p.q0, g.cfg.learner.kind()))
             .map_or("—", |r| r.3);
         let (rel, frac, gr) = (g.relative(), g.fraction(optimum), g.greedy());
         let _ = writeln!(
@@ -456,7 +456,7 @@ fn sensitivity(
             "| {} | {} | {} | {} | {r} | {} | {} |",
             p.epsilon,
             p.q0,
-            g.cfg.learner.kind.name(),
+            g.cfg.learner.kind().name(),
             pct(&rel),
             pct(&frac),
             num(&gr)
@@ -466,7 +466,7 @@ fn sensitivity(
             "{},{},{},{},{},{},{},{},{},{}",
             p.epsilon,
             p.q0,
-            g.cfg.learner.kind.name(),
+            g.cfg.learner.kind().name(),
             rel.mean,
             rel.ci95,
             frac.mean,
@@ -496,8 +496,8 @@ fn fig6(
     let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
     let mut groups = run(paper::fig6_configs(o)?, &format!("fig 6 {env}"), stop, prog)?;
     // MMQ first, then Q-learning, whatever the spec's order.
-    groups.sort_by_key(|g| g.cfg.learner.kind != LearnerKind::Mmq);
-    if groups.len() != 2 || groups[1].cfg.learner.kind != LearnerKind::Q {
+    groups.sort_by_key(|g| g.cfg.learner.kind() != LearnerKind::Mmq);
+    if groups.len() != 2 || groups[1].cfg.learner.kind() != LearnerKind::Q {
         return Err(ReportError::Lab(mmq_lab::LabError::Config {
             file: format!("the Fig. 6 spec ({env})"),
             message: "Fig. 6 compares exactly two settings, `mmq` and `q`".into(),

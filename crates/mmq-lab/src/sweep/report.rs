@@ -267,18 +267,24 @@ pub fn combine(parts: &[(Plan, Vec<CellStats>)]) -> (Plan, Vec<CellStats>) {
 const LEARNER_SIDE: [&str; 8] =
     ["learner", "max_delay", "lambda_hat", "alpha", "gamma", "epsilon", "q0", "baseline"];
 
+/// The learner setting a field of the `[settings]` table names (`settings.lasso` →
+/// `lasso`; also under the prefix `beyond.` of stored specs).
+fn setting_of(field: &str) -> Option<&str> {
+    field.strip_prefix("settings.").or_else(|| field.strip_prefix("beyond."))
+}
+
 /// The settings of a sweep with a `learner` axis: every combination of the values of the
 /// other axes (world, env, delay, robot, steps, ...), in order of first appearance, with
 /// its cells as `(label, [(learner label, cell index)])`. A learner's label is its name,
-/// with the learner-side axes (`max_delay`, `alpha`, ..., `beyond.*`; not `baseline`)
+/// with the learner-side axes (`max_delay`, `alpha`, ..., `settings.*`; not `baseline`)
 /// whose values differ between its cells, e.g. `deconv-model-time (max_delay=200,
-/// beyond.time_bin_s=1)`. The robot override `cell_diagnostics=true` (diagnostics, not a
+/// time_bin_s=1)`. The robot override `cell_diagnostics=true` (diagnostics, not a
 /// setting) is left out of labels. Empty without a `learner` axis.
 pub fn settings(plan: &Plan) -> Vec<(String, Vec<(String, usize)>)> {
     if !plan.axes.iter().any(|a| a == "learner") {
         return Vec::new();
     }
-    let learner_side = |a: &str| LEARNER_SIDE.contains(&a) || a.starts_with("beyond.");
+    let learner_side = |a: &str| LEARNER_SIDE.contains(&a) || setting_of(a).is_some();
     let others: Vec<&String> = plan.axes.iter().filter(|a| !learner_side(a)).collect();
     let tuning: Vec<&String> =
         plan.axes.iter().filter(|a| learner_side(a) && *a != "learner" && *a != "baseline").collect();
@@ -290,7 +296,7 @@ pub fn settings(plan: &Plan) -> Vec<(String, Vec<(String, usize)>)> {
                 (0..plan.cells.len())
                     .any(|d| plan.param(d, "learner") == name && plan.param(d, a) != plan.param(c, a))
             })
-            .map(|a| format!("{}={}", a.trim_start_matches("beyond."), plan.param(c, a)))
+            .map(|a| format!("{}={}", setting_of(a).unwrap_or(a), plan.param(c, a)))
             .collect();
         if varied.is_empty() { name.to_string() } else { format!("{name} ({})", varied.join(", ")) }
     };

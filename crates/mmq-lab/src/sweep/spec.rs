@@ -14,6 +14,7 @@ use super::syntax::{OneOrMany, RawSpec, SeedsField, Source, Values};
 use super::{FIELDS, MAX_JOBS, MAX_SPEC_BYTES};
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
+use crate::settings::{has_setting, learners_with, with_settings};
 
 /// The parsed, validated spec with its resolved worlds and every cell's configuration.
 #[derive(Debug)]
@@ -59,7 +60,8 @@ impl SweepSpec {
         let src = Source { file: &file_name, text };
         let raw: RawSpec = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
         let d = RunConfig::default();
-        let dl = LearnerSpec::default();
+        let (dm, df) =
+            (mmq_learn::settings::MmqSettings::default(), mmq_learn::settings::FixedSettings::default());
         let dp = Params::default();
         let world = match raw.world {
             Some(w) => Values::new("world", Some(w), String::new()),
@@ -74,8 +76,8 @@ impl SweepSpec {
         let env = Values::new("env", raw.env, "grid".to_string());
         let learner = Values::new("learner", raw.learner, "mmq".to_string());
         let delay = Values::new("delay", raw.delay, d.delay.clone());
-        let max_delay = Values::new("max_delay", raw.max_delay, dl.max_delay as u64);
-        let lambda_hat = Values::new("lambda_hat", raw.lambda_hat, dl.lambda_hat as u64);
+        let max_delay = Values::new("max_delay", raw.max_delay, dm.max_delay as u64);
+        let lambda_hat = Values::new("lambda_hat", raw.lambda_hat, df.lambda_hat as u64);
         let alpha = Values::new("alpha", raw.alpha, dp.alpha);
         let gamma = Values::new("gamma", raw.gamma, dp.gamma);
         let epsilon = Values::new("epsilon", raw.epsilon, dp.epsilon);
@@ -126,11 +128,19 @@ impl SweepSpec {
             }
             None => None,
         };
-        let beyond_at = texts.len();
-        // `[beyond]`: fields `beyond.KEY` after the others, in key order.
-        let beyond: Vec<(String, Values<toml::Value>)> = raw
-            .beyond
-            .unwrap_or_default()
+        let settings_at = texts.len();
+        // `[settings]` (or `[beyond]`, its name in stored specs): fields `settings.KEY`
+        // after the others, in key order.
+        let (prefix, table) = match (raw.settings, raw.beyond) {
+            (Some(_), Some(b)) => {
+                let at = b.values().next().map_or(0, |v| v.span().start);
+                return Err(src.error(at, "beyond", "give the learner settings in one table, [settings]"));
+            }
+            (Some(t), None) => ("settings", t),
+            (None, Some(b)) => ("beyond", b),
+            (None, None) => ("settings", Default::default()),
+        };
+        let named: Vec<(String, Values<toml::Value>)> = table
             .into_iter()
             .map(|(k, v)| {
                 let offset = v.span().start;
@@ -138,12 +148,12 @@ impl SweepSpec {
                     OneOrMany::One(x) => (false, vec![x]),
                     m @ OneOrMany::Many(_) => (true, m.into_vec()),
                 };
-                (k, Values { name: "beyond", values, listed, offset })
+                (k, Values { name: "settings", values, listed, offset })
             })
             .collect();
-        for (k, v) in &beyond {
+        for (k, v) in &named {
             texts.push((
-                format!("beyond.{k}"),
+                format!("{prefix}.{k}"),
                 v.values.iter().map(value_text).collect(),
                 v.listed,
                 v.offset,
@@ -226,14 +236,28 @@ impl SweepSpec {
             }
         }
 
-        for (k, v) in &beyond {
+        // Each setting applies to the cells whose learner has it; one no learner of the
+        // sweep has is an error, and each value is checked by the first learner that has it.
+        for (k, v) in &named {
+            let Some(&kind) = learners.iter().find(|&&l| has_setting(l, k)) else {
+                let names: Vec<&str> = learners.iter().map(|l| l.name()).collect();
+                let with = learners_with(k);
+                let fix = if with.is_empty() {
+                    "no learner has it; remove it (`mmq learners` and docs/sweeps.md list the settings)"
+                        .to_string()
+                } else {
+                    format!("add a learner that has it ({}) to `learner`, or remove it", with.join(", "))
+                };
+                return Err(src.error(
+                    v.offset,
+                    &format!("{prefix}.{k}"),
+                    format!("no learner of the sweep ({}) has this setting; {fix}", names.join(", ")),
+                ));
+            };
             for (i, x) in v.values.iter().enumerate() {
-                let item = if v.listed { format!("beyond.{k}[{i}]") } else { format!("beyond.{k}") };
-                let learner = with_beyond(&LearnerSpec::default(), &[(k.as_str(), x)])
-                    .map_err(|m| src.error(v.offset, &item, m))?;
-                learner
-                    .validate()
-                    .map_err(|e| src.error(v.offset, &item, plain_message(&LabError::Learner(e))))?;
+                let item = if v.listed { format!("{prefix}.{k}[{i}]") } else { format!("{prefix}.{k}") };
+                with_settings(&LearnerSpec::new(kind), &[(k.as_str(), x)])
+                    .map_err(|e| src.error(v.offset, &item, plain_message(&e)))?;
             }
         }
 
@@ -366,6 +390,9 @@ impl SweepSpec {
             let params: Vec<String> = idx.iter().zip(&texts).map(|(&i, t)| t.1[i].clone()).collect();
             let mut key = String::from("mmq-sweep-cell/1\n");
             for ((f, ..), v) in texts.iter().zip(&params) {
+                // Learner settings enter the id as `beyond.KEY`, so that a spec keeps its
+                // cell ids whichever name its table has.
+                let f = f.strip_prefix("settings.").map_or_else(|| f.clone(), |k| format!("beyond.{k}"));
                 let _ = writeln!(key, "{f}={v}");
             }
             let _ = writeln!(key, "world_bytes={}", world_digests[idx[0]]);
@@ -379,21 +406,33 @@ impl SweepSpec {
                     ),
                 });
             }
-            let mut cfg = RunConfig {
+            let kind = learners[idx[2]];
+            let learner = LearnerSpec {
+                params: Params {
+                    alpha: alpha.values[idx[6]],
+                    gamma: gamma.values[idx[7]],
+                    epsilon: epsilon.values[idx[8]],
+                    q0: q0.values[idx[9]],
+                },
+                ..LearnerSpec::new(kind)
+            };
+            // The cell's learner takes the settings it has: `max_delay`, `lambda_hat`, then
+            // those of `[settings]`.
+            let md = toml::Value::Integer(max_delay.values[idx[4]] as i64);
+            let lh = toml::Value::Integer(lambda_hat.values[idx[5]] as i64);
+            let pairs: Vec<(&str, &toml::Value)> = [("max_delay", &md), ("lambda_hat", &lh)]
+                .into_iter()
+                .chain(named.iter().zip(&idx[settings_at..]).map(|((k, v), &i)| (k.as_str(), &v.values[i])))
+                .filter(|(k, _)| has_setting(kind, k))
+                .collect();
+            let learner = with_settings(&learner, &pairs).map_err(|e| LabError::Config {
+                file: file_name.clone(),
+                message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
+            })?;
+            let cfg = RunConfig {
                 world: world_paths[idx[0]].clone(),
                 env: envs[idx[1]],
-                learner: LearnerSpec {
-                    kind: learners[idx[2]],
-                    params: Params {
-                        alpha: alpha.values[idx[6]],
-                        gamma: gamma.values[idx[7]],
-                        epsilon: epsilon.values[idx[8]],
-                        q0: q0.values[idx[9]],
-                    },
-                    lambda_hat: lambda_hat.values[idx[5]] as usize,
-                    max_delay: max_delay.values[idx[4]] as usize,
-                    ..LearnerSpec::default()
-                },
+                learner,
                 delay: delay.values[idx[3]].clone(),
                 steps: steps.values[idx[10]],
                 seed: seeds[0],
@@ -406,19 +445,6 @@ impl SweepSpec {
                 robot: robot.as_ref().zip(robot_at).map_or_else(Vec::new, |(r, k)| r.values[idx[k]].clone()),
                 ..RunConfig::default()
             };
-            if !beyond.is_empty() {
-                let pairs: Vec<(&str, &toml::Value)> = beyond
-                    .iter()
-                    .zip(&idx[beyond_at..])
-                    .map(|((k, v), &i)| (k.as_str(), &v.values[i]))
-                    .collect();
-                cfg.learner = with_beyond(&cfg.learner, &pairs)
-                    .and_then(|l| l.validate().map(|_| l).map_err(|e| e.to_string()))
-                    .map_err(|m| LabError::Config {
-                        file: file_name.clone(),
-                        message: format!("cell {} ({}): {m}", cells.len(), params.join(", ")),
-                    })?;
-            }
             cells.push(PlanCell { id, params });
             configs.push(cfg);
             world_of.push(idx[0] * settings + robot_at.map_or(0, |k| idx[k]));
@@ -489,26 +515,6 @@ fn with_robot(world: &World, overrides: &[String]) -> Result<World, String> {
     Ok(w)
 }
 
-/// `base` with `beyond.KEY = value` for every pair, through the learner's serde form,
-/// so that every learner parameter this build knows can be set by name.
-fn with_beyond(base: &LearnerSpec, pairs: &[(&str, &toml::Value)]) -> Result<LearnerSpec, String> {
-    let mut v = toml::Value::try_from(base).map_err(|e| e.to_string())?;
-    let table = v.as_table_mut().ok_or("the learner is not a table")?;
-    let beyond = table.entry("beyond").or_insert_with(|| toml::Value::Table(toml::Table::new()));
-    let beyond = beyond.as_table_mut().ok_or("`beyond` is not a table")?;
-    for (k, x) in pairs {
-        beyond.insert((*k).to_string(), (*x).clone());
-    }
-    v.try_into::<LearnerSpec>().map_err(|e| {
-        let m = e.message().trim().replace('\n', "; ");
-        if m.contains("unknown field `beyond`") {
-            "this build's learners take no parameters beyond the paper's".to_string()
-        } else {
-            m
-        }
-    })
-}
-
 /// A lab error's message without the command-line flag it names (`--alpha = 2 ...` →
 /// `2 ...`), for spec messages that name the field themselves.
 fn plain_message(e: &LabError) -> String {
@@ -518,6 +524,7 @@ fn plain_message(e: &LabError) -> String {
             format!("{value} is not accepted; {accepted}")
         }
         LabError::Delay(d) => d.to_string(),
+        LabError::Setting { message, .. } => message.clone(),
         other => other.to_string(),
     }
 }
@@ -544,7 +551,7 @@ mod tests {
         assert_eq!(p.param(1, "delay"), "poisson:2");
         assert_eq!(p.param(3, "learner"), "mmq");
         assert_eq!(p.job(3), (1, 6));
-        assert_eq!(s.config(4).learner.kind, LearnerKind::Mmq);
+        assert_eq!(s.config(4).learner.kind(), LearnerKind::Mmq);
         let ids: BTreeSet<_> = p.cells.iter().map(|c| &c.id).collect();
         assert_eq!(ids.len(), 6);
         // Reordering the lists keeps the ids of the cells.
@@ -630,6 +637,49 @@ mod tests {
         assert!(e.contains("robot:") && e.contains("KEY=VALUE overrides"), "{e}");
         let e = spec(&format!("{base}delay = \"exponential:4\"\n")).unwrap_err().to_string();
         assert!(e.contains("delay:") && e.contains("exponential:4s"), "{e}");
+    }
+
+    /// A setting applies to the cells whose learner has it (`max_delay` to `mmq`, not to
+    /// `q`; `trace_decay` to `q-lambda`); one no learner of the sweep has, or a bad value,
+    /// is refused with the field; `[beyond]` is read as `[settings]` with the same ids.
+    #[test]
+    fn settings_apply_to_the_learners_that_have_them() {
+        use mmq_learn::LearnerSettings as S;
+        let base = "world = \"../paper-3x3.toml\"\nlearner = [\"q\", \"q-lambda\", \"mmq\"]\nmax_delay = 7\nsteps = 100\n";
+        let s = spec(&format!("{base}[settings]\ntrace_decay = [0.5, 0.9]\n")).unwrap();
+        assert_eq!(s.plan.axes, ["learner", "settings.trace_decay"]);
+        assert_eq!(s.plan.cells.len(), 6);
+        let learners: Vec<&S> = (0..6).map(|c| &s.config(c).learner.settings).collect();
+        assert!(matches!(learners[0], S::Q(_)) && matches!(learners[1], S::Q(_)));
+        match (learners[2], learners[3]) {
+            (S::QLambda(a), S::QLambda(b)) => assert_eq!((a.trace_decay, b.trace_decay), (0.5, 0.9)),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(learners[4].max_delay(), Some(7));
+        assert_eq!(learners[5], learners[4]);
+        // The table's older name gives the same cells and ids, its fields keep that name.
+        let t = spec(&format!("{base}[beyond]\ntrace_decay = [0.5, 0.9]\n")).unwrap();
+        assert_eq!(t.plan.axes, ["learner", "beyond.trace_decay"]);
+        let ids = |s: &SweepSpec| s.plan.cells.iter().map(|c| c.id.clone()).collect::<Vec<_>>();
+        assert_eq!(ids(&s), ids(&t));
+        assert_eq!(t.config(3).learner, s.config(3).learner);
+
+        let e = spec(&format!("{base}[settings]\nlasso = 0.2\n")).unwrap_err().to_string();
+        assert!(
+            e.contains("settings.lasso: no learner of the sweep (q, q-lambda, mmq) has this setting"),
+            "{e}"
+        );
+        assert!(e.contains("(deconv-q, deconv-model, deconv-model-time)"), "{e}");
+        let e = spec(&format!("{base}[settings]\nspeed = 2\n")).unwrap_err().to_string();
+        assert!(e.contains("settings.speed:") && e.contains("no learner has it"), "{e}");
+        let e = spec(&format!("{base}[settings]\ntrace_decay = [0.5, 1.5]\n")).unwrap_err().to_string();
+        assert!(e.contains("settings.trace_decay[1]: 1.5 is not accepted"), "{e}");
+        let e = spec(&format!("{base}[settings]\ntrace_decay = \"high\"\n")).unwrap_err().to_string();
+        assert!(e.contains("settings.trace_decay:") && e.contains("invalid type"), "{e}");
+        let e = spec(&format!("{base}[settings]\ntrace_decay = 0.5\n[beyond]\ntrace_decay = 0.9\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("one table, [settings]"), "{e}");
     }
 
     /// `curve = N` stores N points of the learning curve per job; they must fall on

@@ -153,8 +153,12 @@ pub(super) struct RawSpec {
     pub(super) robot: Field<RobotSetting>,
     /// Points of the learning curve stored per job (absent: none).
     pub(super) curve: Option<Spanned<u64>>,
-    /// Learner parameters beyond the paper (`[beyond]` table: trace decay, ...), each
-    /// a value or a list, passed to the learner's `beyond` settings by name.
+    /// Learner settings besides `max_delay` and `lambda_hat` (`[settings]` table:
+    /// `trace_decay`, `lasso`, ...), each a value or a list, applied by name to the cells
+    /// whose learner has the setting.
+    pub(super) settings: Option<BTreeMap<String, Spanned<OneOrMany<toml::Value>>>>,
+    /// The `[settings]` table under the name specs of stored sweeps give it; read the
+    /// same way, and its fields keep the prefix `beyond.` so their reports stay as they were.
     pub(super) beyond: Option<BTreeMap<String, Spanned<OneOrMany<toml::Value>>>>,
 }
 

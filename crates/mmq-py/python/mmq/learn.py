@@ -21,9 +21,10 @@ class Learner:
         seed: the master seed; exploration draws from its exploration stream and greedy
             ties from its evaluation stream, as ``mmq run --seed`` does, so the same
             steps give the same tables as the CLI.
-        **settings: hyper-parameters by their config names: ``alpha``, ``gamma``,
-            ``epsilon``, ``q0``, ``lambda_hat``, ``max_delay`` and the parameters of the
-            learners beyond the paper (``trace_decay``, ``kernel_width``, ...).
+        **settings: hyper-parameters by their config names: the shared ``alpha``,
+            ``gamma``, ``epsilon``, ``q0``, and the learner's own settings (``max_delay``
+            of ``mmq``, ``lambda_hat`` of ``fixed``, ``trace_decay`` of ``q-lambda``, ...);
+            one the learner does not have raises ``ConfigError``.
 
     The learner sees only (s, a, delivered reward, s'); call :meth:`observe` once per
     step, in order.

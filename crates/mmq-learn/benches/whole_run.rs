@@ -1,11 +1,12 @@
-//! Speed of the learners beyond the paper (issue 8) on the paper's 9×9 world with the
+//! Speed of the learners besides Q-learning and MMQ on the paper's 9×9 world with the
 //! Poisson(13) channel: environment, channel and learner together, as in a run, over a
 //! whole run of 150,000 steps (the deconvolving learners refit on a schedule that grows
-//! with t, so their cost per step depends on the horizon). Results: docs/algorithms/beyond.md.
+//! with t, so their cost per step depends on the horizon). Results:
+//! docs/algorithms/deconvolution.md.
 //!
-//! `cargo bench -p mmq-learn --bench beyond`
+//! `cargo bench -p mmq-learn --bench whole_run`
 //!
-//! - `beyond-9x9-poisson13/{q,mmq-kernel,q-lambda,sarsa-lambda,oracle,deconv-q,deconv-model}`:
+//! - `whole-run-9x9-poisson13/{q,mmq-kernel,q-lambda,sarsa-lambda,oracle,deconv-q,deconv-model}`:
 //!   each learner as the runner builds it from the default [`LearnerSpec`]; `q` is the
 //!   reference. The oracle's channel keeps the ground-truth ledger it reads.
 //! - `.../deconv-q-told`, `.../deconv-model-told`: told the true pmf (no pmf estimate).
@@ -15,7 +16,6 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use mmq_core::{DelayDist, DelayedReward, Rng, SeedTree, Start, Stream, World};
 use mmq_grid::GridEnv;
-use mmq_learn::beyond::BeyondParams;
 use mmq_learn::{Experience, LearnerKind, LearnerSpec, Truth};
 
 const STEPS: u64 = 150_000;
@@ -59,13 +59,12 @@ fn run(spec: &LearnerSpec, w: &World) -> f64 {
 
 fn bench(c: &mut Criterion) {
     let w = world();
-    let mut g = c.benchmark_group("beyond-9x9-poisson13");
+    let mut g = c.benchmark_group("whole-run-9x9-poisson13");
     g.throughput(Throughput::Elements(STEPS));
     g.sample_size(10);
     let base = |kind| LearnerSpec {
-        kind,
         params: mmq_learn::spec::Params { epsilon: 0.05, q0: 10.0, ..Default::default() },
-        ..LearnerSpec::default()
+        ..LearnerSpec::new(kind)
     };
     for kind in [
         LearnerKind::Q,
@@ -80,15 +79,15 @@ fn bench(c: &mut Criterion) {
         g.bench_function(kind.name(), |b| b.iter(|| run(&spec, &w)));
     }
     for kind in [LearnerKind::DeconvQ, LearnerKind::DeconvModel] {
-        let spec = LearnerSpec {
-            beyond: BeyondParams { told_delay: Some("poisson:13".into()), ..BeyondParams::default() },
-            ..base(kind)
-        };
+        let mut spec = base(kind);
+        if let Some(d) = spec.settings.deconv_mut() {
+            d.told_delay = Some("poisson:13".into());
+        }
         g.bench_function(format!("{}-told", kind.name()), |b| b.iter(|| run(&spec, &w)));
-        let spec = LearnerSpec {
-            beyond: BeyondParams { decode_values: false, ..BeyondParams::default() },
-            ..base(kind)
-        };
+        let mut spec = base(kind);
+        if let Some(d) = spec.settings.deconv_mut() {
+            d.decode_values = false;
+        }
         g.bench_function(format!("{}-summed", kind.name()), |b| b.iter(|| run(&spec, &w)));
     }
     g.finish();
