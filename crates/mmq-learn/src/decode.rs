@@ -220,7 +220,7 @@ impl ValueDeconvolver {
     /// Refits when due; returns true when it did.
     pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
         self.max_delivery = self.max_delivery.max(reward.abs());
-        if !self.cfg.decode_values {
+        if !self.cfg.settings.decode_values {
             return self.parts[0].observe_transition(x, next_state, reward);
         }
         self.hist.push(Step { x: x as u32, next: next_state as u32, r: reward });
@@ -253,7 +253,7 @@ impl ValueDeconvolver {
     fn refit(&mut self) {
         Deconvolver::refit_all(&mut self.parts);
         let t = self.parts[0].steps();
-        self.next_refit = next_refit_after(self.cfg.refit_every, t);
+        self.next_refit = next_refit_after(self.cfg.settings.refit_every, t);
         self.sum_rewards();
         self.update_values();
     }
@@ -338,7 +338,7 @@ impl ValueDeconvolver {
     /// reward values found.
     pub fn diagnostics(&self) -> Diagnostics {
         let mut d = self.parts[0].diagnostics();
-        if self.cfg.decode_values {
+        if self.cfg.settings.decode_values {
             d.figures.push(("reward/values_found", self.values.len() as f64));
             d.figures.push(("reward/value_rebuilds", self.rebuilds as f64));
             d.reward_values.clone_from(&self.values);
@@ -349,7 +349,7 @@ impl ValueDeconvolver {
     /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
     pub fn reset_history(&mut self) {
         self.parts.iter_mut().for_each(Deconvolver::reset_history);
-        if self.cfg.decode_values {
+        if self.cfg.settings.decode_values {
             self.runs.push(self.hist.len());
         }
     }
@@ -386,9 +386,9 @@ mod tests {
 
     fn config() -> DeconvConfig {
         let mut c = cfg(6, None);
-        (c.lasso, c.significance, c.reward_prior, c.refit_every) = (0.1, 1.0, 1.0, 1000);
-        (c.successor_groups, c.pmf_weighted, c.pmf_significance, c.pmf_prior) = (true, true, 1.0, 5.0);
-        c.decode_values = true;
+        (c.settings.lasso, c.settings.significance, c.settings.reward_prior, c.settings.refit_every) = (0.1, 1.0, 1.0, 1000);
+        (c.settings.successor_groups, c.settings.pmf_weighted, c.settings.pmf_significance, c.settings.pmf_prior) = (true, true, 1.0, 5.0);
+        c.settings.decode_values = true;
         c
     }
 

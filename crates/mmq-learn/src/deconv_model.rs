@@ -515,7 +515,7 @@ mod tests {
     fn probes_take_the_known_bump_while_the_delay_is_uncertain() {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
         let mut cfg = tiny_config();
-        (cfg.told, cfg.pmf_weighted) = (None, true);
+        (cfg.told, cfg.settings.pmf_weighted) = (None, true);
         let build = |probes| {
             let mut l = DeconvModel::new(p, cfg.clone(), 1, probes, 2, 2);
             let trace = [(0, 0, 0, -1.0), (0, 1, 1, 0.0), (1, 0, 0, 2.0)];
@@ -560,7 +560,7 @@ mod tests {
     fn confidence_rule_by_hand() {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 100.0 };
         let mut cfg = tiny_config();
-        cfg.refit_every = 4;
+        cfg.settings.refit_every = 4;
         let run = |z: f64| {
             let mut l = DeconvModel::new(p, cfg.clone(), 1000, Probes::OFF, 1, 2).with_confidence(z);
             l.observe(&exp(0, 0, 0, 0, 0.0));

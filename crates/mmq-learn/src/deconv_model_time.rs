@@ -212,7 +212,7 @@ mod tests {
     #[test]
     fn one_decision_per_bin_is_deconv_model_bit_for_bit() {
         let mut cfg = tiny_config();
-        cfg.refit_every = 20;
+        cfg.settings.refit_every = 20;
         let mut step = DeconvModel::new(params(), cfg.clone(), 2, Probes::OFF, 3, 2);
         let mut time = DeconvModelTime::new(params(), cfg, 2, Probes::OFF, 0.1, 3, 2);
         let (mut ra, mut rb) = (rng_from_seed(3), rng_from_seed(3));
@@ -253,8 +253,8 @@ mod tests {
     #[test]
     fn recovers_a_delay_in_seconds_under_variable_step_durations() {
         let mut cfg = crate::deconv::tests::cfg(24, None);
-        (cfg.lasso, cfg.significance, cfg.reward_prior, cfg.refit_every) = (0.1, 1.0, 1.0, 1000);
-        (cfg.pmf_weighted, cfg.pmf_significance, cfg.pmf_prior) = (true, 1.0, 5.0);
+        (cfg.settings.lasso, cfg.settings.significance, cfg.settings.reward_prior, cfg.settings.refit_every) = (0.1, 1.0, 1.0, 1000);
+        (cfg.settings.pmf_weighted, cfg.settings.pmf_significance, cfg.settings.pmf_prior) = (true, 1.0, 5.0);
         let mut l = DeconvModelTime::new(params(), cfg, 1, Probes::OFF, 0.1, 2, 2);
         let mut rng = rng_from_seed(11);
         let (mut now, mut due): (f64, Vec<(f64, f64)>) = (0.0, Vec::new());

@@ -119,7 +119,7 @@ pub(crate) mod tests {
     /// K = 1 and the told pmf p = (½, ½), no penalties, a refit after 4 steps; two
     /// states with one action alternating 0 → 1 → 0 → ...
     pub(crate) fn tiny_config() -> DeconvConfig {
-        DeconvConfig {
+        let settings = crate::settings::DeconvSettings {
             max_delay: 1,
             reward_prior: 0.0,
             lasso: 0.0,
@@ -132,9 +132,10 @@ pub(crate) mod tests {
             pmf_prior: 0.0,
             pmf_smoothness: 0.0,
             refit_every: 4,
-            told: Some(vec![0.5, 0.5]),
             decode_values: false,
-        }
+            told_delay: None,
+        };
+        DeconvConfig { settings, told: Some(vec![0.5, 0.5]) }
     }
 
     /// Deliveries 2, 3, 3, 3 are exactly r_t = ½ R(x_t) + ½ R(x_{t−1}) with R = (4, 2)

@@ -256,22 +256,7 @@ impl DeconvSettings {
             )),
             None => None,
         };
-        Ok(DeconvConfig {
-            max_delay: self.max_delay,
-            reward_prior: self.reward_prior,
-            lasso: self.lasso,
-            significance: self.significance,
-            state_rewards: self.state_rewards,
-            successor_groups: self.successor_groups,
-            joint_test: self.joint_test,
-            pmf_weighted: self.pmf_weighted,
-            pmf_significance: self.pmf_significance,
-            pmf_prior: self.pmf_prior,
-            pmf_smoothness: self.pmf_smoothness,
-            refit_every: self.refit_every,
-            told,
-            decode_values: self.decode_values,
-        })
+        Ok(DeconvConfig { settings: self.clone(), told })
     }
 
     /// Table entries of a deconvolving learner over `pairs` state-action pairs: Q, R̂ and

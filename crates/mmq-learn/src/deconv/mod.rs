@@ -58,6 +58,7 @@ mod stats;
 pub(crate) use counts::MAX_PAIRS;
 pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 
+use crate::settings::DeconvSettings;
 use crate::{DelayEstimate, Diagnostics, Table};
 use stats::{LagStats, UNSEEN};
 
@@ -76,49 +77,18 @@ pub const HISTORY_MAX: usize = 1 << 21;
 /// A pair that led to more than one next state.
 const MIXED: u32 = u32::MAX - 1;
 
-/// Configuration of a [`Deconvolver`].
+/// Configuration of a [`Deconvolver`]: the deconvolution settings as the learner's
+/// configuration gives them ([`DeconvSettings`], each documented there; in the notation of
+/// docs/algorithms/deconv-q.md, `max_delay` is K, `reward_prior` μ and `lasso` λ₁ of
+/// (D2), `significance` κ, `joint_test` κ_J, `pmf_significance` κ_p, `pmf_prior` ν and
+/// `pmf_smoothness` ρ), and the told pmf, if any.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DeconvConfig {
-    /// K: the largest delay considered, steps.
-    pub max_delay: usize,
-    /// μ of (D2): ridge strength on R̂, in visits' worth of information.
-    pub reward_prior: f64,
-    /// λ₁ of (D2), reward units.
-    pub lasso: f64,
-    /// κ: an estimate is kept only when it is more than κ·√(2 ln m) standard errors from
-    /// zero, m the number of reward features (the threshold of (D2) grows by
-    /// κ √(2 ln m) σ̂ √G(x, x), σ̂ the residual deviation; κ = 1 is the universal threshold).
-    pub significance: f64,
-    /// Reward features per state (shared by its actions) besides those per pair.
-    pub state_rewards: bool,
-    /// Reward features per transition: the actions of a state that have only ever led to
-    /// one and the same next state share a feature (besides their own).
-    pub successor_groups: bool,
-    /// κ_J: the joint test keeps a pair's reward only when it lies more than
-    /// κ_J κ √(2 ln m) σ̂ joint standard errors from zero (0: off; pair features only).
-    pub joint_test: f64,
-    /// Refine the pmf by reweighted least squares on the stored history (each step
-    /// weighted by the inverse of its delivery's variance under p̂).
-    pub pmf_weighted: bool,
-    /// κ_p: in the reweighted fit a lag keeps its mass only with more than κ_p standard
-    /// errors of evidence (an L1 penalty κ_p √A_kk over {p ≥ 0, Σ p ≤ 1}, then
-    /// renormalised); without it non-negativity turns noise into mass at every lag.
-    pub pmf_significance: f64,
-    /// ν: pull ½ ν max_x R̂(x)² ‖p − uniform‖² of the pmf fit towards the uniform pmf,
-    /// in visits of the largest reward: it dominates while few rewards were seen and
-    /// fades as data come in, so early fits stay broad instead of locking onto a lag.
-    pub pmf_prior: f64,
-    /// ρ: roughness penalty ½ ρ max_x R̂(x)² Σ_k (p(k+1) − p(k))² of the pmf fit, in
-    /// visits of the largest reward (0: off).
-    pub pmf_smoothness: f64,
-    /// Steps between two refits early on; later refits come every max(this, t/8) steps.
-    pub refit_every: u64,
+    /// The settings (`decode_values` is read by [`crate::decode::ValueDeconvolver`], not
+    /// by [`Deconvolver`]; `told_delay` is already turned into `told`).
+    pub settings: DeconvSettings,
     /// A known pmf over 0..=K (then p̂ is not estimated).
     pub told: Option<Vec<f64>>,
-    /// Decode each delivery into the discrete reward values it is a sum of and fit one
-    /// reward table per value with a shared pmf ([`crate::decode`]); read by
-    /// [`crate::decode::ValueDeconvolver`], not by [`Deconvolver`].
-    pub decode_values: bool,
 }
 
 /// The step of the next refit after one at step `t`: every `refit_every` steps early on,
@@ -184,7 +154,7 @@ impl Deconvolver {
         counts: bool,
     ) -> Self {
         let num_pairs = num_states * num_actions;
-        let k = cfg.max_delay;
+        let k = cfg.settings.max_delay;
         let pmf = match &cfg.told {
             Some(p) => {
                 let mut p = p.clone();
@@ -196,7 +166,7 @@ impl Deconvolver {
             None => vec![1.0 / (k + 1) as f64; k + 1],
         };
         Self {
-            next_refit: cfg.refit_every,
+            next_refit: cfg.settings.refit_every,
             cfg,
             pmf,
             r: vec![0.0; num_pairs],
@@ -306,7 +276,7 @@ impl Deconvolver {
         let t = self.stats.t;
         if t >= self.next_refit {
             self.refit();
-            self.next_refit = next_refit_after(self.cfg.refit_every, t);
+            self.next_refit = next_refit_after(self.cfg.settings.refit_every, t);
             refitted = true;
         }
         refitted
@@ -325,7 +295,7 @@ impl Deconvolver {
     /// One step's statistics (no refit): pair `x` taken, `reward` delivered.
     pub(crate) fn record(&mut self, x: usize, reward: f64) {
         let i = self.stats.record(x, reward);
-        if self.cfg.pmf_weighted && self.cfg.told.is_none() {
+        if self.cfg.settings.pmf_weighted && self.cfg.told.is_none() {
             if self.hist_x.len() == HISTORY_MAX {
                 self.hist_x.drain(..HISTORY_MAX / 2);
                 self.hist_r.drain(..HISTORY_MAX / 2);
@@ -392,7 +362,7 @@ impl Deconvolver {
                 })
                 .collect();
             for d in ds.iter_mut() {
-                let k_n = d.cfg.max_delay + 1;
+                let k_n = d.cfg.settings.max_delay + 1;
                 d.pmf = vec![1.0 / k_n as f64; k_n];
                 d.r.iter_mut().chain(d.r_pair.iter_mut()).chain(d.r_group.iter_mut()).for_each(|x| *x = 0.0);
             }
@@ -481,7 +451,7 @@ pub(crate) mod tests {
     use rand::RngExt;
 
     pub(crate) fn cfg(k: usize, told: Option<Vec<f64>>) -> DeconvConfig {
-        DeconvConfig {
+        let settings = DeconvSettings {
             max_delay: k,
             reward_prior: 0.0,
             lasso: 0.0,
@@ -494,9 +464,10 @@ pub(crate) mod tests {
             pmf_prior: 0.0,
             pmf_smoothness: 0.0,
             refit_every: 1_000_000,
-            told,
             decode_values: false,
-        }
+            told_delay: None,
+        };
+        DeconvConfig { settings, told }
     }
 
     /// The sign constraint of one reward value's deconvolver, by hand. Told p = (½, ½),
@@ -508,7 +479,7 @@ pub(crate) mod tests {
     fn sign_constraint_by_hand() {
         for (sign, want) in [(0.0, [4.0, 2.0]), (1.0, [4.0, 2.0]), (-1.0, [0.0, 0.0])] {
             let mut c = cfg(1, Some(vec![0.5, 0.5]));
-            c.refit_every = 4;
+            c.settings.refit_every = 4;
             let mut d = Deconvolver::new(c, 2, 1);
             d.set_sign(sign);
             for (t, r) in [2.0, 3.0, 3.0, 3.0].into_iter().enumerate() {
@@ -554,7 +525,7 @@ pub(crate) mod tests {
             g
         };
         let mut c = cfg(3, None);
-        c.successor_groups = true;
+        c.settings.successor_groups = true;
         // 3 states × 3 actions, pair id s·3 + a.
         let mut d = Deconvolver::new(c.clone(), 3, 3);
         d.observe_transition(0, 1, 0.0); // (0, 0) → 1
@@ -567,7 +538,7 @@ pub(crate) mod tests {
         d.observe_transition(0, 2, 0.0); // (0, 0) also led to 2: on its own now
         assert_eq!(grouped(&d), vec![vec![0], vec![1], vec![2], vec![3]]);
         // State features take precedence: every action of a state in one group.
-        c.state_rewards = true;
+        c.settings.state_rewards = true;
         let mut d = Deconvolver::new(c, 3, 3);
         for (x, s2) in [(0, 1), (1, 1), (2, 0), (3, 1)] {
             d.observe_transition(x, s2, 0.0);
@@ -594,8 +565,8 @@ pub(crate) mod tests {
         };
         let fit = |groups: bool| {
             let mut c = cfg(k, None);
-            c.successor_groups = groups;
-            (c.lasso, c.significance, c.reward_prior, c.refit_every) = (0.1, 1.0, 1.0, 1000);
+            c.settings.successor_groups = groups;
+            (c.settings.lasso, c.settings.significance, c.settings.reward_prior, c.settings.refit_every) = (0.1, 1.0, 1.0, 1000);
             let mut d = Deconvolver::new(c, 3, 2);
             let mut rng = rng_from_seed(11);
             let (mut s, mut pending) = (0, vec![0.0; 40_000 + 8]);
@@ -652,7 +623,7 @@ pub(crate) mod tests {
         let truth = [0.0, 0.0, 0.0, 5.0, 0.0];
         let fit = |joint_test: f64| {
             let mut c = cfg(k, Some(told.clone()));
-            (c.lasso, c.significance, c.reward_prior, c.joint_test) = (0.1, 1.0, 1.0, joint_test);
+            (c.settings.lasso, c.settings.significance, c.settings.reward_prior, c.settings.joint_test) = (0.1, 1.0, 1.0, joint_test);
             let mut d = Deconvolver::new(c, truth.len(), 1);
             let mut rng = rng_from_seed(11);
             let mut xs: Vec<usize> = Vec::new();

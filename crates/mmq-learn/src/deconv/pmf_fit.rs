@@ -179,7 +179,7 @@ impl Deconvolver {
     fn pmf_system(&self, counts: &LagStats) -> Option<(Vec<f64>, Vec<f64>, Vec<f64>, f64)> {
         let st = &self.stats;
         let n = st.n();
-        let k_n = self.cfg.max_delay + 1;
+        let k_n = self.cfg.settings.max_delay + 1;
         let r: Vec<f64> = st.pairs.iter().map(|&x| self.r[x as usize]).collect();
         if r.iter().all(|&v| v == 0.0) {
             return None;
@@ -218,7 +218,7 @@ impl Deconvolver {
     /// on the sum of their systems ½ pᵀAp − cᵀp, then the reweighted passes.
     pub(super) fn fit_pmf_all(ds: &mut [Deconvolver]) {
         ds[0].stats.merge();
-        let k_n = ds[0].cfg.max_delay + 1;
+        let k_n = ds[0].cfg.settings.max_delay + 1;
         let cfg = ds[0].cfg.clone();
         let mut systems: Vec<(usize, Vec<f64>, f64)> = Vec::new();
         let mut total: Option<System> = None;
@@ -230,15 +230,15 @@ impl Deconvolver {
             systems.push((di, r, rm));
         }
         let Some((mut amat, cvec)) = total else { return };
-        let nu = cfg.pmf_prior * rmax * rmax;
-        let rho = cfg.pmf_smoothness * rmax * rmax;
+        let nu = cfg.settings.pmf_prior * rmax * rmax;
+        let rho = cfg.settings.pmf_smoothness * rmax * rmax;
         let trace_u: f64 = (0..k_n).map(|i| amat[i * k_n + i]).sum();
         if rho > 0.0 {
             add_roughness(&mut amat, k_n, rho);
         }
         let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &ds[0].pmf) else { return };
         let mut last = None;
-        if cfg.pmf_weighted {
+        if cfg.settings.pmf_weighted {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
             for _ in 0..WEIGHTED_PASSES {
@@ -255,7 +255,7 @@ impl Deconvolver {
                     add_roughness(&mut aw, k_n, rho * trace_w / trace_u.max(f64::MIN_POSITIVE));
                 }
                 let lam: Vec<f64> =
-                    (0..k_n).map(|i| cfg.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
+                    (0..k_n).map(|i| cfg.settings.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
                 match solve_pmf(&aw, &cw, nu_w, &lam, &p) {
                     Some(next) => p = next,
                     None => break,
@@ -273,7 +273,7 @@ impl Deconvolver {
     /// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over the stored history, ỹ_t(k) = y_{t−k},
     /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀).
     fn weighted_stats(&self, r: &[f64], p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
-        let k_n = self.cfg.max_delay + 1;
+        let k_n = self.cfg.settings.max_delay + 1;
         let delta = 0.25 / k_n as f64;
         let v0 = 0.01 * rmax * rmax;
         let mut a = vec![0.0; k_n * k_n];
@@ -369,8 +369,8 @@ mod tests {
         let (mut medians, mut ses) = (Vec::new(), Vec::new());
         for seed in 0..40 {
             let mut c = cfg(k, None);
-            c.pmf_weighted = true;
-            c.refit_every = 1000;
+            c.settings.pmf_weighted = true;
+            c.settings.refit_every = 1000;
             let mut d = Deconvolver::new(c, 2, 1);
             let mut rng = rng_from_seed(100 + seed);
             let steps = 4000;

@@ -139,7 +139,7 @@ enum JointStep {
 impl Deconvolver {
     /// Whether the joint test runs (on, and pair features only).
     pub(super) fn joint_on(&self) -> bool {
-        self.cfg.joint_test > 0.0 && !self.cfg.state_rewards
+        self.cfg.settings.joint_test > 0.0 && !self.cfg.settings.state_rewards
     }
 
     /// The reward groups, as (a member's pair id, compact members): the pairs of each
@@ -154,7 +154,7 @@ impl Deconvolver {
         for (i, &x) in self.stats.pairs.iter().enumerate() {
             let st = x as usize / a_n;
             let succ = self.succ[x as usize];
-            let key = if !self.cfg.successor_groups || self.cfg.state_rewards {
+            let key = if !self.cfg.settings.successor_groups || self.cfg.settings.state_rewards {
                 (st, 0)
             } else if succ == UNSEEN || succ == MIXED {
                 (st, u64::from(u32::MAX) + 1 + i as u64)
@@ -172,7 +172,7 @@ impl Deconvolver {
 
     /// Whether pairs share group features (per state or per successor).
     fn grouped(&self) -> bool {
-        self.cfg.state_rewards || self.cfg.successor_groups
+        self.cfg.settings.state_rewards || self.cfg.settings.successor_groups
     }
 
     /// R given p: lasso by coordinate descent on (G, b), warm-started; `g` and a_0 = Σ p(k)²
@@ -229,9 +229,9 @@ impl Deconvolver {
         let mut l = Lasso {
             g,
             bvec: self.stats.bvec(&self.pmf),
-            ridge: self.cfg.reward_prior * a0,
-            kappa: self.cfg.significance * (2.0 * m.ln()).sqrt() * sigma,
-            lasso: self.cfg.lasso,
+            ridge: self.cfg.settings.reward_prior * a0,
+            kappa: self.cfg.settings.significance * (2.0 * m.ln()).sqrt() * sigma,
+            lasso: self.cfg.settings.lasso,
             sign: self.sign,
             pair_factor: if grouped { PAIR_PENALTY } else { 1.0 },
             grouped,
@@ -301,7 +301,7 @@ impl Deconvolver {
                 }
             }
         };
-        let failure = joint_failure(&inv, &active, &it.rp, self.cfg.joint_test * l.kappa);
+        let failure = joint_failure(&inv, &active, &it.rp, self.cfg.settings.joint_test * l.kappa);
         let step = match failure {
             None if cut_short => JointStep::Converge,
             None => return JointStep::Done,
