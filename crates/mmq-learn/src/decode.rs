@@ -386,8 +386,9 @@ mod tests {
 
     fn config() -> DeconvConfig {
         let mut c = cfg(6, None);
-        (c.settings.lasso, c.settings.significance, c.settings.reward_prior, c.settings.refit_every) = (0.1, 1.0, 1.0, 1000);
-        (c.settings.successor_groups, c.settings.pmf_weighted, c.settings.pmf_significance, c.settings.pmf_prior) = (true, true, 1.0, 5.0);
+        let s = &mut c.settings;
+        (s.lasso, s.significance, s.reward_prior, s.refit_every) = (0.1, 1.0, 1.0, 1000);
+        (s.successor_groups, s.pmf_weighted, s.pmf_significance, s.pmf_prior) = (true, true, 1.0, 5.0);
         c.settings.decode_values = true;
         c
     }

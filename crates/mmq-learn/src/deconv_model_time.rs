@@ -253,8 +253,9 @@ mod tests {
     #[test]
     fn recovers_a_delay_in_seconds_under_variable_step_durations() {
         let mut cfg = crate::deconv::tests::cfg(24, None);
-        (cfg.settings.lasso, cfg.settings.significance, cfg.settings.reward_prior, cfg.settings.refit_every) = (0.1, 1.0, 1.0, 1000);
-        (cfg.settings.pmf_weighted, cfg.settings.pmf_significance, cfg.settings.pmf_prior) = (true, 1.0, 5.0);
+        let s = &mut cfg.settings;
+        (s.lasso, s.significance, s.reward_prior, s.refit_every) = (0.1, 1.0, 1.0, 1000);
+        (s.pmf_weighted, s.pmf_significance, s.pmf_prior) = (true, 1.0, 5.0);
         let mut l = DeconvModelTime::new(params(), cfg, 1, Probes::OFF, 0.1, 2, 2);
         let mut rng = rng_from_seed(11);
         let (mut now, mut due): (f64, Vec<(f64, f64)>) = (0.0, Vec::new());

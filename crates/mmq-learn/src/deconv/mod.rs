@@ -566,7 +566,8 @@ pub(crate) mod tests {
         let fit = |groups: bool| {
             let mut c = cfg(k, None);
             c.settings.successor_groups = groups;
-            (c.settings.lasso, c.settings.significance, c.settings.reward_prior, c.settings.refit_every) = (0.1, 1.0, 1.0, 1000);
+            let s = &mut c.settings;
+            (s.lasso, s.significance, s.reward_prior, s.refit_every) = (0.1, 1.0, 1.0, 1000);
             let mut d = Deconvolver::new(c, 3, 2);
             let mut rng = rng_from_seed(11);
             let (mut s, mut pending) = (0, vec![0.0; 40_000 + 8]);
@@ -623,7 +624,8 @@ pub(crate) mod tests {
         let truth = [0.0, 0.0, 0.0, 5.0, 0.0];
         let fit = |joint_test: f64| {
             let mut c = cfg(k, Some(told.clone()));
-            (c.settings.lasso, c.settings.significance, c.settings.reward_prior, c.settings.joint_test) = (0.1, 1.0, 1.0, joint_test);
+            let s = &mut c.settings;
+            (s.lasso, s.significance, s.reward_prior, s.joint_test) = (0.1, 1.0, 1.0, joint_test);
             let mut d = Deconvolver::new(c, truth.len(), 1);
             let mut rng = rng_from_seed(11);
             let mut xs: Vec<usize> = Vec::new();

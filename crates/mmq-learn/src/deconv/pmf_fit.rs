@@ -254,8 +254,9 @@ impl Deconvolver {
                 if rho > 0.0 {
                     add_roughness(&mut aw, k_n, rho * trace_w / trace_u.max(f64::MIN_POSITIVE));
                 }
-                let lam: Vec<f64> =
-                    (0..k_n).map(|i| cfg.settings.pmf_significance * aw[i * k_n + i].max(0.0).sqrt()).collect();
+                let lam: Vec<f64> = (0..k_n)
+                    .map(|i| cfg.settings.pmf_significance * aw[i * k_n + i].max(0.0).sqrt())
+                    .collect();
                 match solve_pmf(&aw, &cw, nu_w, &lam, &p) {
                     Some(next) => p = next,
                     None => break,
