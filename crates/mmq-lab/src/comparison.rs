@@ -235,8 +235,7 @@ pub struct Outcome {
     #[serde(default)]
     pub ceiling: Option<MeanCi>,
     /// Regret against the optimum: optimum × steps − earned reward, in reward units.
-    #[serde(default)]
-    pub regret: Option<MeanCi>,
+    pub regret: MeanCi,
     /// Greedy evaluation, reward per step from S.
     pub greedy: MeanCi,
     /// Worst seed's greedy evaluation.
@@ -335,7 +334,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         relative: g.relative(),
         fraction: g.fraction(optimum),
         ceiling: crate::summary::ceiling_per_step(&g.cfg, world).map(|c| g.fraction_of_ceiling(c)),
-        regret: Some(g.regret(optimum)),
+        regret: g.regret(optimum),
         greedy: mean_ci(&greedy),
         greedy_min: greedy.iter().copied().fold(f64::INFINITY, f64::min),
         greedy_optimal: greedy.iter().filter(|&&x| x >= best - 1e-9).count(),
@@ -383,8 +382,8 @@ pub fn outcomes_csv(outs: &[Outcome]) -> String {
             o.probes.map_or(String::new(), |p| p.mean.to_string()),
             o.ceiling.map_or(String::new(), |c| c.mean.to_string()),
             o.ceiling.map_or(String::new(), |c| c.ci95.to_string()),
-            o.regret.map_or(String::new(), |r| r.mean.to_string()),
-            o.regret.map_or(String::new(), |r| r.ci95.to_string())
+            o.regret.mean,
+            o.regret.ci95
         );
     }
     s
@@ -452,7 +451,7 @@ mod tests {
             relative: m(1.0),
             fraction: m(0.9),
             ceiling: Some(m(0.91)),
-            regret: Some(m(100.0)),
+            regret: m(100.0),
             greedy: m(0.58),
             greedy_min: 0.58,
             greedy_optimal: 1,

@@ -12,7 +12,6 @@ use std::path::{Path, PathBuf};
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
-use mmq_learn::LearnerKind;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
@@ -243,16 +242,10 @@ pub fn sensitivity_configs(o: &PaperOptions) -> Result<Vec<RunConfig>, LabError>
     let grid = PaperOptions { env: EnvKind::Grid, ..o.clone() };
     let mut v = spec_configs(&grid, "paper-sensitivity")?;
     v.extend(spec_configs(&grid, "paper-fig6")?);
-    let order: Vec<LearnerKind> = v.iter().map(|c| c.learner.kind()).fold(Vec::new(), |mut seen, k| {
-        if !seen.contains(&k) {
-            seen.push(k);
-        }
-        seen
-    });
-    let rank = |c: &RunConfig| order.iter().position(|&k| k == c.learner.kind());
+    // A stable sort: the learners of one setting keep their spec order.
     v.sort_by(|a, b| {
         let (pa, pb) = (a.learner.params, b.learner.params);
-        pa.q0.total_cmp(&pb.q0).then(pb.epsilon.total_cmp(&pa.epsilon)).then(rank(a).cmp(&rank(b)))
+        pa.q0.total_cmp(&pb.q0).then(pb.epsilon.total_cmp(&pa.epsilon))
     });
     Ok(v)
 }

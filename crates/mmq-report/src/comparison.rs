@@ -109,7 +109,7 @@ fn report(o: &ComparisonOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Re
                     x.setting.learner_label(),
                     pct(&x.relative),
                     x.ceiling.map_or("—".into(), |c| pct(&c)),
-                    x.regret.map_or("—".into(), |r| mmq_lab::format::mean_num(&r, 0)),
+                    mmq_lab::format::mean_num(&x.regret, 0),
                     pct(&x.fraction),
                     num(&x.greedy, 3),
                     x.greedy_min,
