@@ -21,6 +21,7 @@
 //! the delay, so each distinct baseline is computed once per process and shared by the
 //! cells that need it (bit-identical to [`crate::run_seed`]'s own baseline).
 
+mod cell;
 mod merge;
 mod plan;
 mod report;

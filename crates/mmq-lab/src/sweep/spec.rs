@@ -2,15 +2,17 @@
 //! `mmq run`, the seeds, the worlds loaded once each, and the product of the axes as
 //! cells, each with its run configuration.
 
-use std::collections::{BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use mmq_core::World;
-use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use mmq_learn::{LearnerKind, LearnerSpec};
+use toml::Spanned;
 
+use super::cell::{Axis, CellFields, LEARNER_FIELDS};
 use super::plan::{Plan, PlanCell, fnv1a};
-use super::syntax::{OneOrMany, RawSpec, SeedsField, Source, Values};
+use super::syntax::{META, Meta, SeedsField, Source};
 use super::{FIELDS, MAX_JOBS, MAX_SPEC_BYTES};
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
@@ -58,80 +60,66 @@ impl SweepSpec {
     pub fn parse(text: &str, file: &Path) -> Result<SweepSpec, LabError> {
         let file_name = file.display().to_string();
         let src = Source { file: &file_name, text };
-        let raw: RawSpec = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
-        let d = RunConfig::default();
-        let (dm, df) =
-            (mmq_learn::settings::MmqSettings::default(), mmq_learn::settings::FixedSettings::default());
-        let dp = Params::default();
-        let world = match raw.world {
-            Some(w) => Values::new("world", Some(w), String::new()),
-            None => {
-                return Err(src.error(
-                    0,
-                    "world",
-                    "missing field `world`: give a world file (relative to the spec's directory), or a list of them",
-                ));
-            }
-        };
-        let env = Values::new("env", raw.env, "grid".to_string());
-        let learner = Values::new("learner", raw.learner, "mmq".to_string());
-        let delay = Values::new("delay", raw.delay, d.delay.clone());
-        let max_delay = Values::new("max_delay", raw.max_delay, dm.max_delay as u64);
-        let lambda_hat = Values::new("lambda_hat", raw.lambda_hat, df.lambda_hat as u64);
-        let alpha = Values::new("alpha", raw.alpha, dp.alpha);
-        let gamma = Values::new("gamma", raw.gamma, dp.gamma);
-        let epsilon = Values::new("epsilon", raw.epsilon, dp.epsilon);
-        let q0 = Values::new("q0", raw.q0, dp.q0);
-        let steps = Values::new("steps", raw.steps, d.steps);
-        let window = Values::new("window", raw.window, d.window);
-        let eval_steps = Values::new("eval_steps", raw.eval_steps, d.eval_steps);
-        let baseline = Values::new("baseline", raw.baseline, d.baseline);
+        let meta: Meta = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
+        let doc: BTreeMap<Spanned<String>, Spanned<toml::Value>> =
+            toml::from_str(text).map_err(|e| src.toml_error(&e))?;
 
-        // Texts of every field's values, in FIELDS order, checked for empty lists and
-        // repeated values (which would make two cells with one id).
-        let mut texts: Vec<(String, Vec<String>, bool, usize)> = vec![
-            text_of(&world, |s| s.clone()),
-            text_of(&env, |s| s.clone()),
-            text_of(&learner, |s| s.clone()),
-            text_of(&delay, |s| s.clone()),
-            text_of(&max_delay, u64::to_string),
-            text_of(&lambda_hat, u64::to_string),
-            text_of(&alpha, f64::to_string),
-            text_of(&gamma, f64::to_string),
-            text_of(&epsilon, f64::to_string),
-            text_of(&q0, f64::to_string),
-            text_of(&steps, u64::to_string),
-            text_of(&window, u64::to_string),
-            text_of(&eval_steps, u64::to_string),
-            text_of(&baseline, bool::to_string),
-        ];
-        debug_assert!(texts.iter().map(|t| t.0.as_str()).eq(FIELDS));
-        // `robot` and `curve`: fields after the others, only when given, so that the
-        // cell ids of specs without them stay as they were.
-        let robot: Option<Values<Vec<String>>> = raw.robot.map(|r| {
-            let offset = r.span().start;
-            let (listed, values) = match r.into_inner() {
-                OneOrMany::One(x) => (false, vec![x.0]),
-                m @ OneOrMany::Many(_) => (true, m.into_vec().into_iter().map(|x| x.0).collect()),
-            };
-            Values { name: "robot", values, listed, offset }
-        });
-        if let Some(r) = &robot {
-            texts.push(text_of(r, |o| o.join(" ")));
-        }
-        let curve = match raw.curve {
-            Some(c) => {
-                let offset = c.span().start;
-                let n = c.into_inner();
-                texts.push(("curve".into(), vec![n.to_string()], false, offset));
-                Some((n, offset))
+        // The cell fields the spec gives; a key that is neither one nor a spec field is
+        // refused by the cells' own deserialisation.
+        let mut given = BTreeMap::new();
+        for (key, value) in doc {
+            let (at, name) = (key.span().start, key.into_inner());
+            if META.contains(&name.as_str()) {
+                continue;
             }
-            None => None,
+            if let Err(m) = CellFields::from_values([(name.as_str(), value.get_ref())])
+                && m.starts_with("unknown field")
+            {
+                return Err(src.error(at, &name, format!("{m}; see docs/sweeps.md")));
+            }
+            given.insert(name, value);
+        }
+        // The fields in FIELDS order (absent ones at their defaults), then `robot` and
+        // `curve` only when given, so that the cell ids of specs without them stay as
+        // they were; then the learner settings.
+        let defaults = match toml::Value::try_from(CellFields::default()) {
+            Ok(toml::Value::Table(t)) => t,
+            _ => unreachable!("a struct serialises to a table"),
         };
-        let settings_at = texts.len();
+        let mut axes = Vec::new();
+        for name in FIELDS {
+            match (given.remove(name), defaults.get(name)) {
+                (Some(v), _) => axes.push(Axis::given(name.to_string(), v)),
+                (None, Some(d)) if name != "world" => axes.push(Axis::default_of(name, d.clone())),
+                (None, _) => {
+                    return Err(src.error(
+                        0,
+                        "world",
+                        "missing field `world`: give a world file (relative to the spec's directory), or a list of them",
+                    ));
+                }
+            }
+        }
+        if let Some(v) = given.remove("robot") {
+            axes.push(Axis::given("robot".into(), v));
+        }
+        debug_assert!(given.is_empty(), "a cell field outside FIELDS and robot: {given:?}");
+        let n_fields = axes.len();
+        // Every value of a cell field on its own: its type, and its canonical text.
+        for axis in &mut axes {
+            for i in 0..axis.values.len() {
+                let cell = CellFields::from_values([(axis.name.as_str(), &axis.values[i])])
+                    .map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
+                axis.texts[i] = cell.text(&axis.name).unwrap_or_default();
+            }
+        }
+        if let Some(c) = &meta.curve {
+            let n = toml::Value::Integer(*c.get_ref() as i64);
+            axes.push(Axis { offset: c.span().start, ..Axis::default_of("curve", n) });
+        }
         // `[settings]` (or `[beyond]`, its name in stored specs): fields `settings.KEY`
         // after the others, in key order.
-        let (prefix, table) = match (raw.settings, raw.beyond) {
+        let (prefix, table) = match (meta.settings, meta.beyond) {
             (Some(_), Some(b)) => {
                 let at = b.values().next().map_or(0, |v| v.span().start);
                 return Err(src.error(at, "beyond", "give the learner settings in one table, [settings]"));
@@ -140,105 +128,43 @@ impl SweepSpec {
             (None, Some(b)) => ("beyond", b),
             (None, None) => ("settings", Default::default()),
         };
-        let named: Vec<(String, Values<toml::Value>)> = table
-            .into_iter()
-            .map(|(k, v)| {
-                let offset = v.span().start;
-                let (listed, values) = match v.into_inner() {
-                    OneOrMany::One(x) => (false, vec![x]),
-                    m @ OneOrMany::Many(_) => (true, m.into_vec()),
-                };
-                (k, Values { name: "settings", values, listed, offset })
-            })
-            .collect();
-        for (k, v) in &named {
-            texts.push((
-                format!("{prefix}.{k}"),
-                v.values.iter().map(value_text).collect(),
-                v.listed,
-                v.offset,
-            ));
-        }
-        for (name, vals, _, offset) in &texts {
-            let name = name.as_str();
-            if vals.is_empty() {
-                return Err(src.error(*offset, name, "the list is empty; give at least one value"));
+        let settings_at = axes.len();
+        let keys: Vec<String> = table.keys().cloned().collect();
+        axes.extend(table.into_iter().map(|(k, v)| Axis::given(format!("{prefix}.{k}"), v)));
+        for axis in &axes {
+            if axis.values.is_empty() {
+                return Err(src.error(axis.offset, &axis.name, "the list is empty; give at least one value"));
             }
             let mut seen = BTreeSet::new();
-            for v in vals {
+            for v in &axis.texts {
                 if !seen.insert(v) {
-                    return Err(src.error(*offset, name, format!("`{v}` is listed twice")));
+                    return Err(src.error(axis.offset, &axis.name, format!("`{v}` is listed twice")));
                 }
             }
         }
+        let at = |name: &str| axes.iter().position(|a| a.name == name);
+        let (world, env, learner) =
+            (&axes[0], &axes[at("env").unwrap_or(1)], &axes[at("learner").unwrap_or(2)]);
 
-        // Every value on its own, against the rules of `mmq run`.
-        let envs: Vec<EnvKind> = env
-            .values
+        // Every value against the rules of `mmq run`.
+        for axis in &axes[..n_fields] {
+            for (i, v) in axis.values.iter().enumerate() {
+                let cell = CellFields::from_values([(axis.name.as_str(), v)])
+                    .map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
+                check_value(&axis.name, &cell).map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
+            }
+        }
+        let learners: Vec<LearnerKind> =
+            learner.texts.iter().filter_map(|l| LearnerKind::parse(l).ok()).collect();
+        // A learner setting (`max_delay`, `lambda_hat` when given, those of `[settings]`)
+        // applies to the cells whose learner has it; one no learner of the sweep has is an
+        // error, and each value is checked by the first learner that has it.
+        let learner_settings = axes
             .iter()
-            .enumerate()
-            .map(|(i, e)| match e.as_str() {
-                "grid" => Ok(EnvKind::Grid),
-                "robot" => Ok(EnvKind::Robot),
-                _ => Err(src.error(
-                    env.offset,
-                    &env.item(i),
-                    format!("`{e}` is not an environment; use grid or robot"),
-                )),
-            })
-            .collect::<Result<_, _>>()?;
-        let learners: Vec<LearnerKind> = learner
-            .values
-            .iter()
-            .enumerate()
-            .map(|(i, l)| {
-                LearnerKind::parse(l).map_err(|e| src.error(learner.offset, &learner.item(i), e.to_string()))
-            })
-            .collect::<Result<_, _>>()?;
-        let check = |offset: usize, item: String, cfg: RunConfig| -> Result<(), LabError> {
-            cfg.validate().map(|_| ()).map_err(|e| src.error(offset, &item, plain_message(&e)))
-        };
-        for (i, x) in delay.values.iter().enumerate() {
-            check(delay.offset, delay.item(i), RunConfig { delay: x.clone(), ..d.clone() })?;
-        }
-        for (vals, set) in [
-            (&alpha, (|p: &mut Params, x| p.alpha = x) as fn(&mut Params, f64)),
-            (&gamma, |p, x| p.gamma = x),
-            (&epsilon, |p, x| p.epsilon = x),
-            (&q0, |p, x| p.q0 = x),
-        ] {
-            for (i, &x) in vals.values.iter().enumerate() {
-                let mut cfg = d.clone();
-                set(&mut cfg.learner.params, x);
-                check(vals.offset, vals.item(i), cfg)?;
-            }
-        }
-        for (vals, set) in [
-            (&steps, (|c: &mut RunConfig, x| c.steps = x) as fn(&mut RunConfig, u64)),
-            (&window, |c, x| c.window = x),
-            (&eval_steps, |c, x| c.eval_steps = x),
-        ] {
-            for (i, &x) in vals.values.iter().enumerate() {
-                let mut cfg = d.clone();
-                set(&mut cfg, x);
-                check(vals.offset, vals.item(i), cfg)?;
-            }
-        }
-        for vals in [&max_delay, &lambda_hat] {
-            for (i, &x) in vals.values.iter().enumerate() {
-                if usize::try_from(x).is_err() || x > 1_000_000 {
-                    return Err(src.error(
-                        vals.offset,
-                        &vals.item(i),
-                        format!("{x} is not accepted; use at most 1000000 steps"),
-                    ));
-                }
-            }
-        }
-
-        // Each setting applies to the cells whose learner has it; one no learner of the
-        // sweep has is an error, and each value is checked by the first learner that has it.
-        for (k, v) in &named {
+            .filter(|a| a.given && LEARNER_FIELDS.contains(&a.name.as_str()))
+            .map(|a| (a.name.as_str(), a))
+            .chain(keys.iter().map(String::as_str).zip(&axes[settings_at..]));
+        for (k, axis) in learner_settings {
             let Some(&kind) = learners.iter().find(|&&l| has_setting(l, k)) else {
                 let names: Vec<&str> = learners.iter().map(|l| l.name()).collect();
                 let with = learners_with(k);
@@ -249,64 +175,26 @@ impl SweepSpec {
                     format!("add a learner that has it ({}) to `learner`, or remove it", with.join(", "))
                 };
                 return Err(src.error(
-                    v.offset,
-                    &format!("{prefix}.{k}"),
+                    axis.offset,
+                    &axis.name,
                     format!("no learner of the sweep ({}) has this setting; {fix}", names.join(", ")),
                 ));
             };
-            for (i, x) in v.values.iter().enumerate() {
-                let item = if v.listed { format!("{prefix}.{k}[{i}]") } else { format!("{prefix}.{k}") };
-                with_settings(&LearnerSpec::new(kind), &[(k.as_str(), x)])
-                    .map_err(|e| src.error(v.offset, &item, plain_message(&e)))?;
+            for (i, x) in axis.values.iter().enumerate() {
+                with_settings(&LearnerSpec::new(kind), &[(k, x)])
+                    .map_err(|e| src.error(axis.offset, &axis.item(i), plain_message(&e)))?;
             }
         }
-
-        // Seeds.
-        let seeds: Vec<u64> = match (raw.seeds, raw.seed) {
-            (Some(s), first) => {
-                let offset = s.span().start;
-                match s.into_inner() {
-                    SeedsField::Count(n) => {
-                        if n == 0 || n > 1_000_000 {
-                            return Err(src.error(offset, "seeds", format!("{n} is not accepted; use a number of seeds in 1..=1000000, or a list of master seeds")));
-                        }
-                        let (first_at, first) =
-                            first.map_or((offset, 0), |f| (f.span().start, f.into_inner()));
-                        if first.checked_add(n - 1).is_none() {
-                            return Err(src.error(first_at, "seed", format!("{first} is not accepted: the {n} seeds from it would pass 2^64 − 1; use a first seed of at most {}", u64::MAX - (n - 1))));
-                        }
-                        (0..n).map(|i| first + i).collect()
-                    }
-                    SeedsField::List(v) => {
-                        if let Some(f) = first {
-                            return Err(src.error(f.span().start, "seed", "`seed` (the first of `seeds` seeds) cannot be combined with a list of seeds; list them all in `seeds`"));
-                        }
-                        if v.is_empty() {
-                            return Err(src.error(
-                                offset,
-                                "seeds",
-                                "the list is empty; give at least one seed",
-                            ));
-                        }
-                        let mut seen = BTreeSet::new();
-                        for s in &v {
-                            if !seen.insert(*s) {
-                                return Err(src.error(offset, "seeds", format!("seed {s} is listed twice")));
-                            }
-                        }
-                        v
-                    }
-                }
-            }
-            (None, first) => vec![first.map_or(0, |f| f.into_inner())],
-        };
+        let seeds = seeds_of(&src, meta.seeds, meta.seed)?;
 
         // Worlds: loaded once each, hashed for the cell ids.
+        let robot_at = at("robot");
+        let robot = robot_at.map(|k| &axes[k]);
         let base = file.parent().map(Path::to_path_buf).unwrap_or_default();
         let mut worlds = Vec::new();
         let mut world_paths = Vec::new();
         let mut world_digests = Vec::new();
-        for (i, w) in world.values.iter().enumerate() {
+        for (i, w) in world.texts.iter().enumerate() {
             let p = Path::new(w);
             let path = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
             // World::load reads at most MAX_FILE_BYTES (or takes the shipped copy); the
@@ -314,62 +202,40 @@ impl SweepSpec {
             let loaded =
                 World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
             let bytes = loaded.source.clone().into_bytes();
-            match &robot {
+            match robot {
                 None => worlds.push(loaded),
                 Some(r) => {
-                    for (k, overrides) in r.values.iter().enumerate() {
-                        worlds
-                            .push(with_robot(&loaded, overrides).map_err(|m| {
-                                src.error(r.offset, &r.item(k), format!("{m} (world `{w}`)"))
-                            })?);
+                    for (k, setting) in r.values.iter().enumerate() {
+                        let overrides = CellFields::from_values([("robot", setting)]).map(|c| c.robot.0);
+                        worlds.push(
+                            overrides
+                                .and_then(|o| with_robot(&loaded, &o))
+                                .map_err(|m| src.error(r.offset, &r.item(k), format!("{m} (world `{w}`)")))?,
+                        );
                     }
                 }
             }
             world_paths.push(path);
             world_digests.push(format!("{:016x}", fnv1a(&bytes)));
         }
-        let settings = robot.as_ref().map_or(1, |r| r.values.len());
-        let robot_at = robot.as_ref().map(|_| FIELDS.len());
-        if let Some(r) = &robot {
-            if !envs.contains(&EnvKind::Robot) {
-                return Err(src.error(
-                    r.offset,
-                    "robot",
-                    "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
-                ));
-            }
-            for (k, o) in r.values.iter().enumerate() {
-                if o.is_empty() {
-                    return Err(src.error(
-                        r.offset,
-                        &r.item(k),
-                        "no overrides; give KEY=VALUE overrides of the [robot] table, e.g. \"profile=ideal\"",
-                    ));
-                }
-            }
+        let robot_settings = robot.map_or(1, |r| r.values.len());
+        if let Some(r) = robot
+            && !env.texts.iter().any(|e| e == EnvKind::Robot.name())
+        {
+            return Err(src.error(
+                r.offset,
+                "robot",
+                "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
+            ));
         }
-        if let Some((n, offset)) = curve {
-            if n == 0 || n > 1000 {
-                return Err(src.error(
-                    offset,
-                    "curve",
-                    format!("{n} is not accepted; use a number of points in 1..=1000, e.g. 15"),
-                ));
-            }
-            for &st in &steps.values {
-                for &w in &window.values {
-                    if st % n != 0 || (st / n) % w != 0 {
-                        return Err(src.error(offset, "curve", format!(
-                            "{st} steps in {n} points of {} steps each do not fall on windows of {w} steps; choose `curve` so that steps / curve is a multiple of `window`",
-                            st as f64 / n as f64
-                        )));
-                    }
-                }
-            }
+        if let Some(c) = &meta.curve {
+            let steps = &axes[at("steps").unwrap_or(10)].values;
+            let windows = &axes[at("window").unwrap_or(11)].values;
+            check_curve(&src, *c.get_ref(), c.span().start, steps, windows)?;
         }
 
         // The product, first field outermost.
-        let lens: Vec<usize> = texts.iter().map(|t| t.1.len()).collect();
+        let lens: Vec<usize> = axes.iter().map(|a| a.values.len()).collect();
         let n_cells = lens.iter().try_fold(1usize, |a, &l| a.checked_mul(l)).unwrap_or(usize::MAX);
         if n_cells.saturating_mul(seeds.len()) > MAX_JOBS {
             return Err(src.error(
@@ -385,14 +251,17 @@ impl SweepSpec {
         let mut configs = Vec::with_capacity(n_cells);
         let mut world_of = Vec::with_capacity(n_cells);
         let mut ids = HashMap::new();
-        let mut idx = vec![0usize; texts.len()];
+        let mut idx = vec![0usize; axes.len()];
         for _ in 0..n_cells {
-            let params: Vec<String> = idx.iter().zip(&texts).map(|(&i, t)| t.1[i].clone()).collect();
+            let params: Vec<String> = idx.iter().zip(&axes).map(|(&i, a)| a.texts[i].clone()).collect();
             let mut key = String::from("mmq-sweep-cell/1\n");
-            for ((f, ..), v) in texts.iter().zip(&params) {
+            for (a, v) in axes.iter().zip(&params) {
                 // Learner settings enter the id as `beyond.KEY`, so that a spec keeps its
                 // cell ids whichever name its table has.
-                let f = f.strip_prefix("settings.").map_or_else(|| f.clone(), |k| format!("beyond.{k}"));
+                let f = a
+                    .name
+                    .strip_prefix("settings.")
+                    .map_or_else(|| a.name.clone(), |k| format!("beyond.{k}"));
                 let _ = writeln!(key, "{f}={v}");
             }
             let _ = writeln!(key, "world_bytes={}", world_digests[idx[0]]);
@@ -406,48 +275,24 @@ impl SweepSpec {
                     ),
                 });
             }
-            let kind = learners[idx[2]];
-            let learner = LearnerSpec {
-                params: Params {
-                    alpha: alpha.values[idx[6]],
-                    gamma: gamma.values[idx[7]],
-                    epsilon: epsilon.values[idx[8]],
-                    q0: q0.values[idx[9]],
-                },
-                ..LearnerSpec::new(kind)
-            };
-            // The cell's learner takes the settings it has: `max_delay`, `lambda_hat`, then
-            // those of `[settings]`.
-            let md = toml::Value::Integer(max_delay.values[idx[4]] as i64);
-            let lh = toml::Value::Integer(lambda_hat.values[idx[5]] as i64);
-            let pairs: Vec<(&str, &toml::Value)> = [("max_delay", &md), ("lambda_hat", &lh)]
-                .into_iter()
-                .chain(named.iter().zip(&idx[settings_at..]).map(|((k, v), &i)| (k.as_str(), &v.values[i])))
-                .filter(|(k, _)| has_setting(kind, k))
+            // The cell's values, deserialised into its fields and then its configuration.
+            let in_cell = |k: usize| (k < n_fields).then(|| (axes[k].name.as_str(), &axes[k].values[idx[k]]));
+            let settings: Vec<(&str, &toml::Value)> = keys
+                .iter()
+                .zip(&idx[settings_at..])
+                .zip(&axes[settings_at..])
+                .map(|((k, &i), a)| (k.as_str(), &a.values[i]))
                 .collect();
-            let learner = with_settings(&learner, &pairs).map_err(|e| LabError::Config {
-                file: file_name.clone(),
-                message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
-            })?;
-            let cfg = RunConfig {
-                world: world_paths[idx[0]].clone(),
-                env: envs[idx[1]],
-                learner,
-                delay: delay.values[idx[3]].clone(),
-                steps: steps.values[idx[10]],
-                seed: seeds[0],
-                seeds: 1,
-                window: window.values[idx[11]],
-                eval_steps: eval_steps.values[idx[12]],
-                baseline: baseline.values[idx[13]],
-                save_tables: false,
-                ledger: false,
-                robot: robot.as_ref().zip(robot_at).map_or_else(Vec::new, |(r, k)| r.values[idx[k]].clone()),
-                ..RunConfig::default()
-            };
+            let cfg = CellFields::from_values((0..axes.len()).filter_map(in_cell))
+                .map_err(|message| LabError::Config { file: file_name.clone(), message })
+                .and_then(|cell| cell.run_config(world_paths[idx[0]].clone(), seeds[0], &settings))
+                .map_err(|e| LabError::Config {
+                    file: file_name.clone(),
+                    message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
+                })?;
             cells.push(PlanCell { id, params });
             configs.push(cfg);
-            world_of.push(idx[0] * settings + robot_at.map_or(0, |k| idx[k]));
+            world_of.push(idx[0] * robot_settings + robot_at.map_or(0, |k| idx[k]));
             // Odometer: the last field varies fastest.
             for k in (0..idx.len()).rev() {
                 idx[k] += 1;
@@ -457,14 +302,14 @@ impl SweepSpec {
                 idx[k] = 0;
             }
         }
-        let name = raw.name.unwrap_or_else(|| {
+        let name = meta.name.unwrap_or_else(|| {
             file.file_stem().map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned())
         });
         let plan = Plan {
             name,
-            description: raw.description.unwrap_or_default(),
-            fields: texts.iter().map(|t| t.0.clone()).collect(),
-            axes: texts.iter().filter(|t| t.2).map(|t| t.0.clone()).collect(),
+            description: meta.description.unwrap_or_default(),
+            fields: axes.iter().map(|a| a.name.clone()).collect(),
+            axes: axes.iter().filter(|a| a.listed).map(|a| a.name.clone()).collect(),
             seeds,
             cells,
         };
@@ -475,7 +320,7 @@ impl SweepSpec {
             configs,
             world_of,
             worlds,
-            curve: curve.map_or(0, |c| c.0),
+            curve: meta.curve.map_or(0, |c| c.into_inner()),
         })
     }
 
@@ -490,19 +335,101 @@ impl SweepSpec {
     }
 }
 
-fn text_of<T>(v: &Values<T>, f: impl Fn(&T) -> String) -> (String, Vec<String>, bool, usize) {
-    (v.name.to_string(), v.values.iter().map(f).collect(), v.listed, v.offset)
+/// The master seeds: `seeds = N` from `seed` (default 0), or the listed ones.
+fn seeds_of(
+    src: &Source<'_>,
+    seeds: Option<Spanned<SeedsField>>,
+    first: Option<Spanned<u64>>,
+) -> Result<Vec<u64>, LabError> {
+    let Some(s) = seeds else { return Ok(vec![first.map_or(0, |f| f.into_inner())]) };
+    let offset = s.span().start;
+    match s.into_inner() {
+        SeedsField::Count(n) => {
+            if n == 0 || n > 1_000_000 {
+                return Err(src.error(
+                    offset,
+                    "seeds",
+                    format!(
+                        "{n} is not accepted; use a number of seeds in 1..=1000000, or a list of master seeds"
+                    ),
+                ));
+            }
+            let (first_at, first) = first.map_or((offset, 0), |f| (f.span().start, f.into_inner()));
+            if first.checked_add(n - 1).is_none() {
+                return Err(src.error(first_at, "seed", format!("{first} is not accepted: the {n} seeds from it would pass 2^64 − 1; use a first seed of at most {}", u64::MAX - (n - 1))));
+            }
+            Ok((0..n).map(|i| first + i).collect())
+        }
+        SeedsField::List(v) => {
+            if let Some(f) = first {
+                return Err(src.error(f.span().start, "seed", "`seed` (the first of `seeds` seeds) cannot be combined with a list of seeds; list them all in `seeds`"));
+            }
+            if v.is_empty() {
+                return Err(src.error(offset, "seeds", "the list is empty; give at least one seed"));
+            }
+            let mut seen = BTreeSet::new();
+            for s in &v {
+                if !seen.insert(*s) {
+                    return Err(src.error(offset, "seeds", format!("seed {s} is listed twice")));
+                }
+            }
+            Ok(v)
+        }
+    }
 }
 
-/// A TOML value as a parameter text: strings bare, numbers in shortest form.
-fn value_text(v: &toml::Value) -> String {
-    match v {
-        toml::Value::String(s) => s.clone(),
-        toml::Value::Integer(i) => i.to_string(),
-        toml::Value::Float(f) => f.to_string(),
-        toml::Value::Boolean(b) => b.to_string(),
-        other => other.to_string(),
+/// A value of a cell field, alone in `cell`, against the rules of `mmq run`. Worlds are
+/// loaded, and robot settings applied to them, once each where the product is built.
+fn check_value(name: &str, cell: &CellFields) -> Result<(), String> {
+    match name {
+        "world" => Ok(()),
+        "robot" if cell.robot.is_empty() => {
+            Err("no overrides; give KEY=VALUE overrides of the [robot] table, e.g. \"profile=ideal\"".into())
+        }
+        "max_delay" | "lambda_hat" => {
+            let x = if name == "max_delay" { cell.max_delay } else { cell.lambda_hat };
+            if usize::try_from(x).is_err() || x > 1_000_000 {
+                return Err(format!("{x} is not accepted; use at most 1000000 steps"));
+            }
+            Ok(())
+        }
+        _ => cell
+            .run_config(PathBuf::new(), 0, &[])
+            .and_then(|c| c.validate())
+            .map(|_| ())
+            .map_err(|e| plain_message(&e)),
     }
+}
+
+/// `curve = n` points must fall on the windows of every cell's curve.
+fn check_curve(
+    src: &Source<'_>,
+    n: u64,
+    offset: usize,
+    steps: &[toml::Value],
+    windows: &[toml::Value],
+) -> Result<(), LabError> {
+    if n == 0 || n > 1000 {
+        return Err(src.error(
+            offset,
+            "curve",
+            format!("{n} is not accepted; use a number of points in 1..=1000, e.g. 15"),
+        ));
+    }
+    let ints = |v: &[toml::Value]| {
+        v.iter().filter_map(toml::Value::as_integer).map(|x| x as u64).collect::<Vec<_>>()
+    };
+    for &st in &ints(steps) {
+        for &w in &ints(windows) {
+            if !st.is_multiple_of(n) || !(st / n).is_multiple_of(w) {
+                return Err(src.error(offset, "curve", format!(
+                    "{st} steps in {n} points of {} steps each do not fall on windows of {w} steps; choose `curve` so that steps / curve is a multiple of `window`",
+                    st as f64 / n as f64
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `world` with the robot overrides applied to its `[robot]` table, checked as the
@@ -641,7 +568,8 @@ mod tests {
 
     /// A setting applies to the cells whose learner has it (`max_delay` to `mmq`, not to
     /// `q`; `trace_decay` to `q-lambda`); one no learner of the sweep has, or a bad value,
-    /// is refused with the field; `[beyond]` is read as `[settings]` with the same ids.
+    /// is refused with the field (top-level `max_delay` and `lambda_hat` too); `[beyond]`
+    /// is read as `[settings]` with the same ids.
     #[test]
     fn settings_apply_to_the_learners_that_have_them() {
         use mmq_learn::LearnerSettings as S;
@@ -664,6 +592,30 @@ mod tests {
         assert_eq!(ids(&s), ids(&t));
         assert_eq!(t.config(3).learner, s.config(3).learner);
 
+        // `max_delay` and `lambda_hat` at the top level follow the same rule: one that no
+        // learner of the sweep reads is refused, not ignored.
+        let e = spec("world = \"../paper-3x3.toml\"\nlearner = [\"q\", \"mmq\"]\nlambda_hat = 0\n")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("t.toml:3:14: lambda_hat: no learner of the sweep (q, mmq) has this setting"),
+            "{e}"
+        );
+        assert!(e.contains("add a learner that has it (fixed) to `learner`"), "{e}");
+        let e = spec("world = \"../paper-3x3.toml\"\nlearner = \"q\"\nmax_delay = [5, 9]\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("max_delay: no learner of the sweep (q) has this setting"), "{e}");
+        let u = spec("world = \"../paper-3x3.toml\"\nlearner = [\"q\", \"fixed\"]\nlambda_hat = [3, 4]\n")
+            .unwrap();
+        assert_eq!(
+            u.config(3).learner.settings,
+            S::Fixed(mmq_learn::settings::FixedSettings { lambda_hat: 4 })
+        );
+        assert_eq!(u.config(1).learner.settings, u.config(0).learner.settings);
+        // Absent, they keep their defaults in every cell (and in the cell ids).
+        let v = spec("world = \"../paper-3x3.toml\"\nlearner = \"q\"\n").unwrap();
+        assert_eq!(v.plan.param(0, "max_delay"), "50");
         let e = spec(&format!("{base}[settings]\nlasso = 0.2\n")).unwrap_err().to_string();
         assert!(
             e.contains("settings.lasso: no learner of the sweep (q, q-lambda, mmq) has this setting"),
