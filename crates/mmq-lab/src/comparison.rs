@@ -3,28 +3,30 @@
 //! the 15×15 maze, under Poisson delays λ ∈ {0, 5, 13, 25} at ε ∈ {0.02, 0.05, 0.1},
 //! and under three non-Poisson delays (uniform 0–26, a Poisson(3)/Poisson(25) mixture
 //! and a WiFi-latency-like histogram) at ε ∈ {0.05, 0.1}; plus the deconvolving
-//! learners told the true delay pmf (an ablation of the estimate) on 9×9. Drawing and
-//! the report live in mmq-report (`comparison.rs`).
+//! learners told the true delay pmf (an ablation of the estimate) on 9×9. The settings
+//! and their seeds are the spec `worlds/sweeps/paper-comparison.toml` ([`SPEC`]); this
+//! module runs them at a budget and summarises each. Drawing and the report live in
+//! mmq-report (`comparison.rs`).
 //!
 //! Fixed for every setting: α = 0.1, γ = 0.9, q0 = 10, λ̂max = 50 (the largest delay
 //! the learners are told of), 150,000 steps; seeds per setting: see [`ComparisonOptions`]
 //! (`--seeds` sets them all).
 
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
 use mmq_learn::DelayEstimate;
+use mmq_learn::LearnerKind;
 use mmq_learn::deconv::{pmf_mean, pmf_median, truncated_pmf};
-use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
 use serde::{Deserialize, Serialize};
 
-use crate::config::{EnvKind, RunConfig};
+use crate::config::RunConfig;
 use crate::error::LabError;
 use crate::paper::Group;
 use crate::runner::DIAGNOSTICS_EVERY;
-use crate::sweep::csv_field;
+use crate::sweep::{SweepSpec, csv_field};
 
 /// Every learner of the study, in report order.
 pub const LEARNERS: [LearnerKind; 8] = [
@@ -59,21 +61,20 @@ pub const DECONV: [LearnerKind; 2] = [LearnerKind::DeconvQ, LearnerKind::DeconvM
 /// Steps at which the delay estimate is judged ("after 50k steps").
 pub const JUDGE_AT: u64 = 50_000;
 
-/// Budget of the study. The headline settings (the must-shows: Poisson λ = 13 and
-/// the three other delays, at ε = 0.05 and 0.1, estimated pmf) get the full seed count;
-/// the rest of the grid (λ ∈ {0, 5, 25}, ε = 0.02) and the told-pmf ablation get fewer,
-/// which keeps the whole study near an hour on two cores (the deconvolving learners take
-/// ~3 s per 9×9 seed and ~13 s per maze seed).
+/// The study's spec (`worlds/sweeps/paper-comparison.toml`, built into the binary): the
+/// settings it runs and their seeds.
+pub const SPEC: &str = include_str!("../../../worlds/sweeps/paper-comparison.toml");
+
+/// Budget of the study: the spec's seeds (20 per headline setting on 9×9, 5 for the rest
+/// and the told-pmf ablation; 5 and 2 on the maze), which keeps the whole study near an
+/// hour on two cores (the deconvolving learners take ~3 s per 9×9 seed and ~13 s per
+/// maze seed), or a quick budget, or one seed count for every setting.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ComparisonOptions {
-    /// Seeds per headline setting on the paper's 9×9 world.
-    pub seeds: u64,
-    /// Seeds per other setting on 9×9.
-    pub side_seeds: u64,
-    /// Seeds per headline setting on the other (larger) worlds.
-    pub maze_seeds: u64,
-    /// Seeds per other setting on the larger worlds.
-    pub maze_side_seeds: u64,
+    /// Seeds of every setting, instead of the spec's.
+    pub seeds: Option<u64>,
+    /// The quick budget: 3, 2 or 1 seeds where the spec gives 20, 5 or 2.
+    pub quick: bool,
     /// Decision steps per seed.
     pub steps: u64,
     /// First master seed.
@@ -85,35 +86,26 @@ pub struct ComparisonOptions {
 }
 
 impl ComparisonOptions {
-    /// The full budget (9×9: 20 seeds per headline setting, 5 per other; maze: 5 and 2;
-    /// × 150,000 steps) or a quick one (3, 2, 2, 1 seeds × 20,000).
+    /// The full budget (the spec's seeds × 150,000 steps) or a quick one (3, 2 or 1 seeds
+    /// × 20,000).
     pub fn new(quick: bool) -> Self {
-        let ([seeds, side_seeds, maze_seeds, maze_side_seeds], steps, window) =
-            if quick { ([3, 2, 2, 1], 20_000, 1000) } else { ([20, 5, 5, 2], 150_000, 2500) };
-        Self {
-            seeds,
-            side_seeds,
-            maze_seeds,
-            maze_side_seeds,
-            steps,
-            seed: 0,
-            worlds: PathBuf::from("worlds"),
-            window,
-        }
+        let (steps, window) = if quick { (20_000, 1000) } else { (150_000, 2500) };
+        Self { seeds: None, quick, steps, seed: 0, worlds: PathBuf::from("worlds"), window }
     }
 
     /// The same seed count `n` for every setting.
     pub fn set_all_seeds(&mut self, n: u64) {
-        (self.seeds, self.side_seeds, self.maze_seeds, self.maze_side_seeds) = (n, n, n, n);
+        self.seeds = Some(n);
     }
 
-    /// Seeds of a setting.
-    pub fn seeds_for(&self, s: &Setting) -> u64 {
-        match (s.world == WORLDS[0], s.is_headline()) {
-            (true, true) => self.seeds,
-            (true, false) => self.side_seeds,
-            (false, true) => self.maze_seeds,
-            (false, false) => self.maze_side_seeds,
+    /// Seeds of a setting the spec runs over `spec_seeds` seeds.
+    pub fn seeds_for(&self, spec_seeds: u64) -> u64 {
+        match (self.seeds, self.quick) {
+            (Some(n), _) => n,
+            (None, false) => spec_seeds,
+            (None, true) if spec_seeds >= 20 => 3,
+            (None, true) if spec_seeds >= 5 => 2,
+            (None, true) => 1,
         }
     }
 }
@@ -154,69 +146,78 @@ impl Setting {
     }
 }
 
-/// Every setting of the study, in a fixed order.
-pub fn settings() -> Vec<Setting> {
-    let mut v = Vec::new();
-    let mut push = |world: &str, delay: &str, label: &str, epsilon: f64, learner, told| {
-        v.push(Setting {
-            world: world.into(),
-            delay: delay.into(),
-            delay_label: label.into(),
-            epsilon,
-            learner,
-            told,
-        })
-    };
-    for world in WORLDS {
-        for l in LAMBDAS {
-            for eps in EPSILONS {
-                for k in LEARNERS {
-                    push(world, &format!("poisson:{l}"), &format!("Poisson λ = {l}"), eps, k, false);
-                }
-            }
-        }
-        for (label, spec) in OTHER_DELAYS {
-            for eps in OTHER_EPSILONS {
-                for k in LEARNERS {
-                    push(world, spec, label, eps, k, false);
-                }
-            }
-        }
+/// The label of a delay in the report: `Poisson λ = 13`, or the name of a non-Poisson
+/// delay of the study.
+pub fn delay_label(delay: &str) -> String {
+    match delay.strip_prefix("poisson:") {
+        Some(l) => format!("Poisson λ = {l}"),
+        None => OTHER_DELAYS
+            .iter()
+            .find(|(_, d)| *d == delay)
+            .map_or_else(|| delay.to_string(), |(l, _)| l.to_string()),
     }
-    // Ablation: told the true pmf, 9×9, the four non-trivial delays.
-    let delays = [("Poisson λ = 13", "poisson:13")].into_iter().chain(OTHER_DELAYS);
-    for (label, spec) in delays {
-        for eps in OTHER_EPSILONS {
-            for k in DECONV {
-                push("paper-9x9", spec, label, eps, k, true);
-            }
-        }
-    }
-    v
 }
 
-/// The run configuration of a setting.
-pub fn config(o: &ComparisonOptions, s: &Setting) -> RunConfig {
-    let params = Params { alpha: 0.1, gamma: 0.9, epsilon: s.epsilon, q0: 10.0 };
-    let mut learner = LearnerSpec { params, ..LearnerSpec::new(s.learner) };
-    if let Some(d) = learner.settings.deconv_mut() {
-        d.told_delay = s.told.then(|| s.delay.clone());
+/// Every setting of the study with its run configuration at the budget of `o`, in
+/// report order: the told-pmf ablation last, otherwise by world, delay, ε and learner in
+/// the order the spec first names them.
+pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError> {
+    let spec = SweepSpec::parse(SPEC, Path::new("paper-comparison.toml"))?;
+    let mut v = Vec::with_capacity(spec.plan.cells.len());
+    for c in 0..spec.plan.cells.len() {
+        let cell = spec.config(c);
+        let world = cell.world.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
+        let setting = Setting {
+            delay_label: delay_label(&cell.delay),
+            delay: cell.delay.clone(),
+            epsilon: cell.learner.params.epsilon,
+            learner: cell.learner.kind(),
+            told: cell.learner.settings.deconv().is_some_and(|d| d.told_delay.is_some()),
+            world,
+        };
+        let seeds = o.seeds_for(spec.plan.seeds_of(c).len() as u64);
+        let cfg = crate::paper::at_budget(cell, o.steps, o.window, o.seed, seeds);
+        let world = o.worlds.join(format!("{}.toml", setting.world));
+        v.push((setting, RunConfig { world, ..cfg }));
     }
-    RunConfig {
-        world: o.worlds.join(format!("{}.toml", s.world)),
-        env: EnvKind::Grid,
-        learner,
-        delay: s.delay.clone(),
-        steps: o.steps,
-        seed: o.seed,
-        seeds: o.seeds_for(s),
-        window: o.window,
-        eval_steps: 1000,
-        baseline: false,
-        save_tables: false,
-        ledger: false,
-        ..RunConfig::default()
-    }
+    let first = |key: fn(&Setting) -> String| {
+        let mut seen: Vec<String> = Vec::new();
+        for (s, _) in &v {
+            if !seen.contains(&key(s)) {
+                seen.push(key(s));
+            }
+        }
+        seen
+    };
+    let order: [Vec<String>; 4] = [
+        first(|s| s.world.clone()),
+        first(|s| s.delay.clone()),
+        first(|s| s.epsilon.to_string()),
+        first(|s| s.learner.name().to_string()),
+    ];
+    let rank = |s: &Setting| {
+        let at = |k: usize, x: String| order[k].iter().position(|y| *y == x).unwrap_or(usize::MAX);
+        (
+            s.told,
+            at(0, s.world.clone()),
+            at(1, s.delay.clone()),
+            at(2, s.epsilon.to_string()),
+            at(3, s.learner.name().to_string()),
+        )
+    };
+    v.sort_by_key(|(s, _)| rank(s));
+    Ok(v)
+}
+
+/// The seeds of the first 9×9 headline setting, the first other 9×9 setting, and the
+/// same on the other world, as the report states the budget.
+pub fn seed_budget(plan: &[(Setting, RunConfig)]) -> [u64; 4] {
+    let of = |nine: bool, headline: bool| {
+        plan.iter()
+            .find(|(s, _)| (s.world == WORLDS[0]) == nine && s.is_headline() == headline)
+            .map_or(0, |(_, c)| c.seeds)
+    };
+    [of(true, true), of(true, false), of(false, true), of(false, false)]
 }
 
 /// What one setting produced, over seeds.
@@ -487,21 +488,83 @@ mod tests {
         }
     }
 
+    /// The spec runs the study the report lays out: every learner at λ ∈ LAMBDAS × ε ∈
+    /// EPSILONS and at the other delays × OTHER_EPSILONS on both worlds, then the
+    /// deconvolving learners told the pmf on 9×9, in that order and with the seeds the
+    /// budget states.
     #[test]
-    fn every_setting_builds_a_valid_config() {
-        let o = ComparisonOptions::new(true);
-        let all = settings();
-        assert_eq!(all.len(), 2 * (4 * 3 + 3 * 2) * LEARNERS.len() + 4 * 2 * 2);
+    fn the_spec_runs_the_study_in_report_order() {
+        let mut expected = Vec::new();
+        let mut push = |world: &str, delay: &str, epsilon: f64, learner: LearnerKind, told: bool| {
+            let delay_label = delay_label(delay);
+            expected.push(Setting {
+                world: world.into(),
+                delay: delay.into(),
+                delay_label,
+                epsilon,
+                learner,
+                told,
+            });
+        };
+        for world in WORLDS {
+            for l in LAMBDAS {
+                for eps in EPSILONS {
+                    for k in LEARNERS {
+                        push(world, &format!("poisson:{l}"), eps, k, false);
+                    }
+                }
+            }
+            for (_, spec) in OTHER_DELAYS {
+                for eps in OTHER_EPSILONS {
+                    for k in LEARNERS {
+                        push(world, spec, eps, k, false);
+                    }
+                }
+            }
+        }
+        for spec in ["poisson:13"].into_iter().chain(OTHER_DELAYS.map(|d| d.1)) {
+            for eps in OTHER_EPSILONS {
+                for k in DECONV {
+                    push("paper-9x9", spec, eps, k, true);
+                }
+            }
+        }
+        let full = plan(&ComparisonOptions::new(false)).unwrap();
+        let got: Vec<&Setting> = full.iter().map(|(s, _)| s).collect();
+        assert_eq!(got, expected.iter().collect::<Vec<_>>());
+        assert_eq!(seed_budget(&full), [20, 5, 5, 2]);
+        let quick = plan(&ComparisonOptions::new(true)).unwrap();
+        assert_eq!(seed_budget(&quick), [3, 2, 2, 1]);
+        for ((s, c), (_, q)) in full.iter().zip(&quick) {
+            c.validate().unwrap();
+            // The learner as the study states it: α 0.1, γ 0.9, the setting's ε, q0 10,
+            // every setting at its default but the pmf the ablation is told.
+            let params = mmq_learn::spec::Params { alpha: 0.1, gamma: 0.9, epsilon: s.epsilon, q0: 10.0 };
+            let mut learner = mmq_learn::LearnerSpec { params, ..mmq_learn::LearnerSpec::new(s.learner) };
+            if let Some(d) = learner.settings.deconv_mut() {
+                d.told_delay = s.told.then(|| s.delay.clone());
+            }
+            assert_eq!(c.learner, learner);
+            assert_eq!(
+                (c.env, c.baseline, c.save_tables, c.ledger),
+                (crate::EnvKind::Grid, false, false, false)
+            );
+            let (n9, headline) = (s.world == WORLDS[0], s.is_headline());
+            let want = match (n9, headline) {
+                (true, true) => 20,
+                (true, false) | (false, true) => 5,
+                (false, false) => 2,
+            };
+            assert_eq!(
+                (c.seeds, c.steps, c.window, c.eval_steps, c.learner.params.q0),
+                (want, 150_000, 2500, 1000, 10.0),
+                "{s:?}"
+            );
+            assert_eq!((q.steps, q.window), (20_000, 1000));
+        }
         // The comparison names each learner once, and only learners the catalogue has.
         let names: std::collections::BTreeSet<&str> = LEARNERS.iter().map(|k| k.name()).collect();
         assert_eq!(names.len(), LEARNERS.len());
-        let catalogue: Vec<&str> = mmq_learn::catalogue().into_iter().map(|(_, n, _)| n).collect();
-        assert!(names.iter().all(|n| catalogue.contains(n)), "{names:?} vs {catalogue:?}");
-        for s in &all {
-            let c = config(&o, s);
-            c.validate().unwrap();
-            assert_eq!(c.learner.settings.deconv().is_some_and(|d| d.told_delay.is_some()), s.told);
-        }
         for (_, spec) in OTHER_DELAYS {
             let (p, med, _) = truth(spec).unwrap();
             assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9 && med > 0.0);

@@ -179,6 +179,7 @@ pub const SPECS: &[(&str, &str)] = &[
     ("paper-fig6-robot", include_str!("../../../worlds/sweeps/paper-fig6-robot.toml")),
     ("paper-horizon", include_str!("../../../worlds/sweeps/paper-horizon.toml")),
     ("paper-sensitivity", include_str!("../../../worlds/sweeps/paper-sensitivity.toml")),
+    ("paper-comparison", crate::comparison::SPEC),
 ];
 
 /// The settings of the shipped spec `name` at the budget of `o`: one configuration per
@@ -193,20 +194,24 @@ pub fn spec_configs(o: &PaperOptions, name: &str) -> Result<Vec<RunConfig>, LabE
         ),
     })?;
     let spec = SweepSpec::parse(text, Path::new(&format!("{name}.toml")))?;
-    let scale = |x: u64, by: u64, of: u64| (u128::from(x) * u128::from(by) / u128::from(of)) as u64;
     Ok((0..spec.plan.cells.len())
-        .map(|c| {
-            let cell = spec.config(c);
-            RunConfig {
-                steps: scale(cell.steps, o.steps, PAPER_STEPS),
-                window: scale(cell.window, o.window, PAPER_WINDOW),
-                seed: o.seed,
-                seeds: o.seeds,
-                baseline: false,
-                ..cell.clone()
-            }
-        })
+        .map(|c| at_budget(spec.config(c), o.steps, o.window, o.seed, o.seeds))
         .collect())
+}
+
+/// A spec cell's configuration at a budget: its steps and curve window scaled by
+/// `steps / PAPER_STEPS` and `window / PAPER_WINDOW`, `seeds` seeds from `seed`, and no
+/// baseline of its own (groups get theirs once per world and seed).
+pub(crate) fn at_budget(cell: &RunConfig, steps: u64, window: u64, seed: u64, seeds: u64) -> RunConfig {
+    let scale = |x: u64, by: u64, of: u64| (u128::from(x) * u128::from(by) / u128::from(of)) as u64;
+    RunConfig {
+        steps: scale(cell.steps, steps, PAPER_STEPS),
+        window: scale(cell.window, window, PAPER_WINDOW),
+        seed,
+        seeds,
+        baseline: false,
+        ..cell.clone()
+    }
 }
 
 /// Fig. 2: 3×3, plain Q-learning, relative performance vs Poisson mean λ = 0…20.

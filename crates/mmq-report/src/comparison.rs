@@ -49,8 +49,9 @@ pub(crate) fn run(
     stop: &AtomicBool,
     prog: &dyn Progress,
 ) -> Result<Doc, ReportError> {
-    let settings = study::settings();
-    let cfgs: Vec<_> = settings.iter().map(|s| study::config(o, s)).collect();
+    let plan = study::plan(o)?;
+    let budget = study::seed_budget(&plan);
+    let (settings, cfgs): (Vec<_>, Vec<_>) = plan.into_iter().unzip();
     prog.begin(lab_paper::total_steps(&cfgs), "comparison");
     let progress = |n: u64| prog.advance(n);
     let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &progress })?;
@@ -65,10 +66,11 @@ pub(crate) fn run(
         .zip(&groups)
         .map(|(s, g)| study::outcome(s, g, &worlds[&s.world]))
         .collect::<Result<_, _>>()?;
-    report(o, out, &outs)
+    report(o, budget, out, &outs)
 }
 
-fn report(o: &ComparisonOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
+/// The section of `outs`, run with `o` and `seeds` (as [`study::seed_budget`] gives them).
+fn report(o: &ComparisonOptions, seeds: [u64; 4], out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
     let ix = Index::new(outs);
     let mut sec = Doc::new(out);
     let md = &mut sec.md;
@@ -88,7 +90,7 @@ fn report(o: &ComparisonOptions, out: &Path, outs: &[Outcome]) -> Result<Doc, Re
          ground truth: an upper bound, not a real agent. `deconv-q` and `deconv-model` are told only λ̂max and \
          estimate the delay distribution online (docs/algorithms/deconv-q.md, deconv-model.md); \"told pmf\" \
          rows give them the true distribution instead (ablation).\n",
-        o.steps, o.seeds, o.side_seeds, o.maze_seeds, o.maze_side_seeds
+        o.steps, seeds[0], seeds[1], seeds[2], seeds[3]
     );
     // Headline: 9×9 at ε = 0.05 and 0.1 for the four non-trivial delays.
     let headline_delays: Vec<(String, String)> =

@@ -16,13 +16,7 @@ use crate::sweep::SweepReport;
 
 /// `mmq sweep --dry-run`: the cells and jobs, the fixed fields, every axis and the seeds.
 pub fn sweep_plan(plan: &Plan, shard: Option<Shard>) -> String {
-    let mut t = format!(
-        "sweep {}: {} cells × {} seeds = {} jobs\n",
-        plan.name,
-        plan.cells.len(),
-        plan.seeds.len(),
-        plan.jobs()
-    );
+    let mut t = format!("sweep {}: {}\n", plan.name, plan.size());
     if let Some(s) = shard {
         let n = (0..plan.jobs()).filter(|&j| s.contains(j)).count();
         let _ = writeln!(t, "shard {s}: {n} jobs");
@@ -58,10 +52,9 @@ pub fn sweep_planned(
 ) -> String {
     let shard = shard.map_or(String::new(), |s| format!(", shard {s}"));
     format!(
-        "sweep {}: {} cells × {} seeds = {jobs_total} jobs{shard}: {jobs_here} here, {done} already finished, {} to run ({baselines} shared baselines)",
+        "sweep {}: {}{shard}: {jobs_here} here, {done} already finished, {} to run ({baselines} shared baselines)",
         plan.name,
-        plan.cells.len(),
-        plan.seeds.len(),
+        plan.size_with(jobs_total),
         jobs_here - done,
     )
 }

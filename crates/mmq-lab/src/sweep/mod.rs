@@ -24,6 +24,7 @@
 mod cell;
 mod merge;
 mod plan;
+mod product;
 mod report;
 mod run;
 mod spec;

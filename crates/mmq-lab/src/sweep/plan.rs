@@ -19,7 +19,8 @@ pub struct Plan {
     pub fields: Vec<String>,
     /// The fields given as lists (the swept axes), in [`super::FIELDS`] order.
     pub axes: Vec<String>,
-    /// Master seeds run for every cell.
+    /// Master seeds run for every cell (a spec in parts: every seed of any part, in order
+    /// of appearance; each cell runs its own, [`PlanCell::seeds`]).
     pub seeds: Vec<u64>,
     /// The cells in product order (first field outermost).
     pub cells: Vec<PlanCell>,
@@ -32,18 +33,73 @@ pub struct PlanCell {
     pub id: String,
     /// Every parameter's value as text, aligned with [`Plan::fields`].
     pub params: Vec<String>,
+    /// The master seeds of this cell when they are its part's own (a spec in parts);
+    /// absent: [`Plan::seeds`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seeds: Option<Vec<u64>>,
 }
 
 impl Plan {
     /// Number of (cell, seed) jobs.
     pub fn jobs(&self) -> usize {
-        self.cells.len() * self.seeds.len()
+        if self.uniform() {
+            self.cells.len() * self.seeds.len()
+        } else {
+            (0..self.cells.len()).map(|c| self.seeds_of(c).len()).sum()
+        }
+    }
+
+    /// Whether every cell runs [`Plan::seeds`] (no cell has seeds of its own).
+    pub fn uniform(&self) -> bool {
+        self.cells.iter().all(|c| c.seeds.is_none())
+    }
+
+    /// The master seeds of cell `c`.
+    pub fn seeds_of(&self, c: usize) -> &[u64] {
+        self.cells[c].seeds.as_deref().unwrap_or(&self.seeds)
+    }
+
+    /// The jobs of cell `c`: consecutive, one per seed.
+    pub fn cell_jobs(&self, c: usize) -> std::ops::Range<usize> {
+        if self.uniform() {
+            let n = self.seeds.len();
+            c * n..(c + 1) * n
+        } else {
+            let start = (0..c).map(|k| self.seeds_of(k).len()).sum();
+            start..start + self.seeds_of(c).len()
+        }
     }
 
     /// Cell index and master seed of job `j` (seeds vary fastest).
     pub fn job(&self, j: usize) -> (usize, u64) {
-        let n = self.seeds.len().max(1);
-        (j / n, self.seeds[j % n])
+        if self.uniform() {
+            let n = self.seeds.len().max(1);
+            return (j / n, self.seeds[j % n]);
+        }
+        let mut start = 0;
+        for c in 0..self.cells.len() {
+            let seeds = self.seeds_of(c);
+            if j < start + seeds.len() {
+                return (c, seeds[j - start]);
+            }
+            start += seeds.len();
+        }
+        panic!("job {j} of a plan of {start} jobs")
+    }
+
+    /// Its size in words: `6 cells × 3 seeds = 18 jobs`, or for cells with seeds of their
+    /// own `16 cells, 410 jobs (seeds per part)`.
+    pub fn size(&self) -> String {
+        self.size_with(self.jobs())
+    }
+
+    /// [`Plan::size`] with the number of jobs given.
+    pub fn size_with(&self, jobs: usize) -> String {
+        if self.uniform() {
+            format!("{} cells × {} seeds = {jobs} jobs", self.cells.len(), self.seeds.len())
+        } else {
+            format!("{} cells, {jobs} jobs (seeds per part)", self.cells.len())
+        }
     }
 
     /// The value of `field` in cell `cell`.

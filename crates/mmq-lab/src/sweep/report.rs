@@ -89,10 +89,9 @@ pub struct CellStats {
 
 /// Per-cell statistics of `results`.
 pub fn cell_stats(plan: &Plan, results: &[Option<Metrics>]) -> Vec<CellStats> {
-    let ns = plan.seeds.len();
     (0..plan.cells.len())
         .map(|c| {
-            let done: Vec<&Metrics> = results[c * ns..(c + 1) * ns].iter().flatten().collect();
+            let done: Vec<&Metrics> = results[plan.cell_jobs(c)].iter().flatten().collect();
             let (metrics, notes) = crate::summary::aggregate(&done, is_result_metric);
             CellStats { cell: c, n: done.len(), metrics, notes }
         })
@@ -148,10 +147,8 @@ pub fn summary_markdown(plan: &Plan, stats: &[CellStats]) -> String {
     let done: usize = stats.iter().map(|s| s.n).sum();
     let _ = writeln!(
         out,
-        "{} cells × {} seeds = {} jobs; {done} finished. Means over seeds with 95 % confidence intervals (Student's t).\n",
-        plan.cells.len(),
-        plan.seeds.len(),
-        plan.jobs()
+        "{}; {done} finished. Means over seeds with 95 % confidence intervals (Student's t).\n",
+        plan.size()
     );
     out.push_str(&cells_markdown(plan, stats));
     out
@@ -164,15 +161,7 @@ pub fn combined_markdown(parts: &[(Plan, Vec<CellStats>)], plan: &Plan, stats: &
     let mut out = format!("# Sweeps {}\n\n", names.join(" + "));
     for (p, st) in parts {
         let done: usize = st.iter().map(|s| s.n).sum();
-        let _ = writeln!(
-            out,
-            "- `{}`: {} cells × {} seeds = {} jobs; {done} finished. {}",
-            p.name,
-            p.cells.len(),
-            p.seeds.len(),
-            p.jobs(),
-            p.description.trim()
-        );
+        let _ = writeln!(out, "- `{}`: {}; {done} finished. {}", p.name, p.size(), p.description.trim());
     }
     out.push_str("\nMeans over seeds with 95 % confidence intervals (Student's t).\n\n");
     out.push_str(&cells_markdown(plan, stats));
@@ -230,6 +219,8 @@ pub fn combine(parts: &[(Plan, Vec<CellStats>)]) -> (Plan, Vec<CellStats>) {
     let mut cells = Vec::new();
     let mut stats = Vec::new();
     let mut seeds = Vec::new();
+    // Cells keep their own seeds unless every sweep runs the same seeds in every cell.
+    let same_seeds = parts.iter().all(|(p, _)| p.uniform() && p.seeds == parts[0].0.seeds);
     for (p, st) in parts {
         let offset = cells.len();
         for c in 0..p.cells.len() {
@@ -237,7 +228,8 @@ pub fn combine(parts: &[(Plan, Vec<CellStats>)]) -> (Plan, Vec<CellStats>) {
                 .iter()
                 .map(|f| if p.fields.contains(f) { p.param(c, f).to_string() } else { "–".to_string() })
                 .collect();
-            cells.push(super::PlanCell { id: p.cells[c].id.clone(), params });
+            let own = (!same_seeds).then(|| p.seeds_of(c).to_vec());
+            cells.push(super::PlanCell { id: p.cells[c].id.clone(), params, seeds: own });
         }
         for s in st {
             stats.push(CellStats { cell: s.cell + offset, ..s.clone() });

@@ -1,22 +1,17 @@
-//! The parsed, validated spec: every field's values checked against the rules of
-//! `mmq run`, the seeds, the worlds loaded once each, and the product of the axes as
-//! cells, each with its run configuration.
+//! The parsed, validated spec: its product of cells (`super::product`), or the products
+//! of its parts one after the other, each cell with its run configuration and world.
 
-use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::fmt::Write as _;
+use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 use mmq_core::World;
-use mmq_learn::{LearnerKind, LearnerSpec};
-use toml::Spanned;
 
-use super::cell::{Axis, CellFields, LEARNER_FIELDS};
-use super::plan::{Plan, PlanCell, fnv1a};
-use super::syntax::{META, Meta, SeedsField, Source};
+use super::plan::{Plan, PlanCell};
+use super::product::{Product, product};
+use super::syntax::{Given, Meta, Source, Table};
 use super::{FIELDS, MAX_JOBS, MAX_SPEC_BYTES};
-use crate::config::{EnvKind, RunConfig};
+use crate::config::RunConfig;
 use crate::error::LabError;
-use crate::settings::{has_setting, learners_with, with_settings};
 
 /// The parsed, validated spec with its resolved worlds and every cell's configuration.
 #[derive(Debug)]
@@ -60,268 +55,34 @@ impl SweepSpec {
     pub fn parse(text: &str, file: &Path) -> Result<SweepSpec, LabError> {
         let file_name = file.display().to_string();
         let src = Source { file: &file_name, text };
-        let meta: Meta = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
-        let doc: BTreeMap<Spanned<String>, Spanned<toml::Value>> =
-            toml::from_str(text).map_err(|e| src.toml_error(&e))?;
-
-        // The cell fields the spec gives; a key that is neither one nor a spec field is
-        // refused by the cells' own deserialisation.
-        let mut given = BTreeMap::new();
-        for (key, value) in doc {
-            let (at, name) = (key.span().start, key.into_inner());
-            if META.contains(&name.as_str()) {
-                continue;
+        let mut meta: Meta = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
+        let doc: Table = toml::from_str(text).map_err(|e| src.toml_error(&e))?;
+        let top = Given::top(&src, doc, &mut meta)?;
+        let givens = match meta.part.take() {
+            None => vec![top],
+            Some(parts) if parts.is_empty() => {
+                return Err(src.error(0, "part", "no parts; give at least one [[part]], or none at all"));
             }
-            if let Err(m) = CellFields::from_values([(name.as_str(), value.get_ref())])
-                && m.starts_with("unknown field")
-            {
-                return Err(src.error(at, &name, format!("{m}; see docs/sweeps.md")));
-            }
-            given.insert(name, value);
-        }
-        // The fields in FIELDS order (absent ones at their defaults), then `robot` and
-        // `curve` only when given, so that the cell ids of specs without them stay as
-        // they were; then the learner settings.
-        let defaults = match toml::Value::try_from(CellFields::default()) {
-            Ok(toml::Value::Table(t)) => t,
-            _ => unreachable!("a struct serialises to a table"),
+            Some(parts) => parts.into_iter().map(|p| top.with_part(&src, p)).collect::<Result<_, _>>()?,
         };
-        let mut axes = Vec::new();
-        for name in FIELDS {
-            match (given.remove(name), defaults.get(name)) {
-                (Some(v), _) => axes.push(Axis::given(name.to_string(), v)),
-                (None, Some(d)) if name != "world" => axes.push(Axis::default_of(name, d.clone())),
-                (None, _) => {
-                    return Err(src.error(
-                        0,
-                        "world",
-                        "missing field `world`: give a world file (relative to the spec's directory), or a list of them",
-                    ));
-                }
-            }
-        }
-        if let Some(v) = given.remove("robot") {
-            axes.push(Axis::given("robot".into(), v));
-        }
-        debug_assert!(given.is_empty(), "a cell field outside FIELDS and robot: {given:?}");
-        let n_fields = axes.len();
-        // Every value of a cell field on its own: its type, and its canonical text.
-        for axis in &mut axes {
-            for i in 0..axis.values.len() {
-                let cell = CellFields::from_values([(axis.name.as_str(), &axis.values[i])])
-                    .map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
-                axis.texts[i] = cell.text(&axis.name).unwrap_or_default();
-            }
-        }
-        if let Some(c) = &meta.curve {
-            let n = toml::Value::Integer(*c.get_ref() as i64);
-            axes.push(Axis { offset: c.span().start, ..Axis::default_of("curve", n) });
-        }
-        // `[settings]` (or `[beyond]`, its name in stored specs): fields `settings.KEY`
-        // after the others, in key order.
-        let (prefix, table) = match (meta.settings, meta.beyond) {
-            (Some(_), Some(b)) => {
-                let at = b.values().next().map_or(0, |v| v.span().start);
-                return Err(src.error(at, "beyond", "give the learner settings in one table, [settings]"));
-            }
-            (Some(t), None) => ("settings", t),
-            (None, Some(b)) => ("beyond", b),
-            (None, None) => ("settings", Default::default()),
-        };
-        let settings_at = axes.len();
-        let keys: Vec<String> = table.keys().cloned().collect();
-        axes.extend(table.into_iter().map(|(k, v)| Axis::given(format!("{prefix}.{k}"), v)));
-        for axis in &axes {
-            if axis.values.is_empty() {
-                return Err(src.error(axis.offset, &axis.name, "the list is empty; give at least one value"));
-            }
-            let mut seen = BTreeSet::new();
-            for v in &axis.texts {
-                if !seen.insert(v) {
-                    return Err(src.error(axis.offset, &axis.name, format!("`{v}` is listed twice")));
-                }
-            }
-        }
-        let at = |name: &str| axes.iter().position(|a| a.name == name);
-        let (world, env, learner) =
-            (&axes[0], &axes[at("env").unwrap_or(1)], &axes[at("learner").unwrap_or(2)]);
-
-        // Every value against the rules of `mmq run`.
-        for axis in &axes[..n_fields] {
-            for (i, v) in axis.values.iter().enumerate() {
-                let cell = CellFields::from_values([(axis.name.as_str(), v)])
-                    .map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
-                check_value(&axis.name, &cell).map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
-            }
-        }
-        let learners: Vec<LearnerKind> =
-            learner.texts.iter().filter_map(|l| LearnerKind::parse(l).ok()).collect();
-        // A learner setting (`max_delay`, `lambda_hat` when given, those of `[settings]`)
-        // applies to the cells whose learner has it; one no learner of the sweep has is an
-        // error, and each value is checked by the first learner that has it.
-        let learner_settings = axes
-            .iter()
-            .filter(|a| a.given && LEARNER_FIELDS.contains(&a.name.as_str()))
-            .map(|a| (a.name.as_str(), a))
-            .chain(keys.iter().map(String::as_str).zip(&axes[settings_at..]));
-        for (k, axis) in learner_settings {
-            let Some(&kind) = learners.iter().find(|&&l| has_setting(l, k)) else {
-                let names: Vec<&str> = learners.iter().map(|l| l.name()).collect();
-                let with = learners_with(k);
-                let fix = if with.is_empty() {
-                    "no learner has it; remove it (`mmq learners` and docs/sweeps.md list the settings)"
-                        .to_string()
-                } else {
-                    format!("add a learner that has it ({}) to `learner`, or remove it", with.join(", "))
-                };
-                return Err(src.error(
-                    axis.offset,
-                    &axis.name,
-                    format!("no learner of the sweep ({}) has this setting; {fix}", names.join(", ")),
-                ));
-            };
-            for (i, x) in axis.values.iter().enumerate() {
-                with_settings(&LearnerSpec::new(kind), &[(k, x)])
-                    .map_err(|e| src.error(axis.offset, &axis.item(i), plain_message(&e)))?;
-            }
-        }
-        let seeds = seeds_of(&src, meta.seeds, meta.seed)?;
-
-        // Worlds: loaded once each, hashed for the cell ids.
-        let robot_at = at("robot");
-        let robot = robot_at.map(|k| &axes[k]);
         let base = file.parent().map(Path::to_path_buf).unwrap_or_default();
-        let mut worlds = Vec::new();
-        let mut world_paths = Vec::new();
-        let mut world_digests = Vec::new();
-        for (i, w) in world.texts.iter().enumerate() {
-            let p = Path::new(w);
-            let path = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
-            // World::load reads at most MAX_FILE_BYTES (or takes the shipped copy); the
-            // digest is of the text it parsed.
-            let loaded =
-                World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
-            let bytes = loaded.source.clone().into_bytes();
-            match robot {
-                None => worlds.push(loaded),
-                Some(r) => {
-                    for (k, setting) in r.values.iter().enumerate() {
-                        let overrides = CellFields::from_values([("robot", setting)]).map(|c| c.robot.0);
-                        worlds.push(
-                            overrides
-                                .and_then(|o| with_robot(&loaded, &o))
-                                .map_err(|m| src.error(r.offset, &r.item(k), format!("{m} (world `{w}`)")))?,
-                        );
-                    }
-                }
-            }
-            world_paths.push(path);
-            world_digests.push(format!("{:016x}", fnv1a(&bytes)));
-        }
-        let robot_settings = robot.map_or(1, |r| r.values.len());
-        if let Some(r) = robot
-            && !env.texts.iter().any(|e| e == EnvKind::Robot.name())
-        {
-            return Err(src.error(
-                r.offset,
-                "robot",
-                "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
-            ));
-        }
-        if let Some(c) = &meta.curve {
-            let steps = &axes[at("steps").unwrap_or(10)].values;
-            let windows = &axes[at("window").unwrap_or(11)].values;
-            check_curve(&src, *c.get_ref(), c.span().start, steps, windows)?;
-        }
-
-        // The product, first field outermost.
-        let lens: Vec<usize> = axes.iter().map(|a| a.values.len()).collect();
-        let n_cells = lens.iter().try_fold(1usize, |a, &l| a.checked_mul(l)).unwrap_or(usize::MAX);
-        if n_cells.saturating_mul(seeds.len()) > MAX_JOBS {
-            return Err(src.error(
-                0,
-                "seeds",
-                format!(
-                    "{n_cells} cells × {} seeds is more than {MAX_JOBS} jobs; split the sweep",
-                    seeds.len()
-                ),
-            ));
-        }
-        let mut cells = Vec::with_capacity(n_cells);
-        let mut configs = Vec::with_capacity(n_cells);
-        let mut world_of = Vec::with_capacity(n_cells);
-        let mut ids = HashMap::new();
-        let mut idx = vec![0usize; axes.len()];
-        for _ in 0..n_cells {
-            let params: Vec<String> = idx.iter().zip(&axes).map(|(&i, a)| a.texts[i].clone()).collect();
-            let mut key = String::from("mmq-sweep-cell/1\n");
-            for (a, v) in axes.iter().zip(&params) {
-                // Learner settings enter the id as `beyond.KEY`, so that a spec keeps its
-                // cell ids whichever name its table has.
-                let f = a
-                    .name
-                    .strip_prefix("settings.")
-                    .map_or_else(|| a.name.clone(), |k| format!("beyond.{k}"));
-                let _ = writeln!(key, "{f}={v}");
-            }
-            let _ = writeln!(key, "world_bytes={}", world_digests[idx[0]]);
-            let id = format!("{:016x}", fnv1a(key.as_bytes()));
-            if let Some(other) = ids.insert(id.clone(), cells.len()) {
-                return Err(LabError::Config {
-                    file: file_name.clone(),
-                    message: format!(
-                        "cells {other} and {} hash to the same id {id}; change a value slightly",
-                        cells.len()
-                    ),
-                });
-            }
-            // The cell's values, deserialised into its fields and then its configuration.
-            let in_cell = |k: usize| (k < n_fields).then(|| (axes[k].name.as_str(), &axes[k].values[idx[k]]));
-            let settings: Vec<(&str, &toml::Value)> = keys
-                .iter()
-                .zip(&idx[settings_at..])
-                .zip(&axes[settings_at..])
-                .map(|((k, &i), a)| (k.as_str(), &a.values[i]))
-                .collect();
-            let cfg = CellFields::from_values((0..axes.len()).filter_map(in_cell))
-                .map_err(|message| LabError::Config { file: file_name.clone(), message })
-                .and_then(|cell| cell.run_config(world_paths[idx[0]].clone(), seeds[0], &settings))
-                .map_err(|e| LabError::Config {
-                    file: file_name.clone(),
-                    message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
-                })?;
-            cells.push(PlanCell { id, params });
-            configs.push(cfg);
-            world_of.push(idx[0] * robot_settings + robot_at.map_or(0, |k| idx[k]));
-            // Odometer: the last field varies fastest.
-            for k in (0..idx.len()).rev() {
-                idx[k] += 1;
-                if idx[k] < lens[k] {
-                    break;
-                }
-                idx[k] = 0;
-            }
+        let mut products = Vec::with_capacity(givens.len());
+        let mut jobs = 0;
+        for g in givens {
+            let p = product(&src, g, meta.curve.as_ref(), &base, MAX_JOBS - jobs)?;
+            jobs += p.cells.len() * p.seeds.len();
+            products.push(p);
         }
         let name = meta.name.unwrap_or_else(|| {
             file.file_stem().map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned())
         });
-        let plan = Plan {
-            name,
-            description: meta.description.unwrap_or_default(),
-            fields: axes.iter().map(|a| a.name.clone()).collect(),
-            axes: axes.iter().filter(|a| a.listed).map(|a| a.name.clone()).collect(),
-            seeds,
-            cells,
-        };
-        Ok(SweepSpec {
-            file: file.to_path_buf(),
-            text: text.to_string(),
-            plan,
-            configs,
-            world_of,
-            worlds,
-            curve: meta.curve.map_or(0, |c| c.into_inner()),
-        })
+        let mut spec = join(products, &file_name)?;
+        spec.plan.name = name;
+        spec.plan.description = meta.description.unwrap_or_default();
+        spec.file = file.to_path_buf();
+        spec.text = text.to_string();
+        spec.curve = meta.curve.map_or(0, |c| c.into_inner());
+        Ok(spec)
     }
 
     /// The run configuration of cell `c` (one seed, no tables).
@@ -335,130 +96,83 @@ impl SweepSpec {
     }
 }
 
-/// The master seeds: `seeds = N` from `seed` (default 0), or the listed ones.
-fn seeds_of(
-    src: &Source<'_>,
-    seeds: Option<Spanned<SeedsField>>,
-    first: Option<Spanned<u64>>,
-) -> Result<Vec<u64>, LabError> {
-    let Some(s) = seeds else { return Ok(vec![first.map_or(0, |f| f.into_inner())]) };
-    let offset = s.span().start;
-    match s.into_inner() {
-        SeedsField::Count(n) => {
-            if n == 0 || n > 1_000_000 {
-                return Err(src.error(
-                    offset,
-                    "seeds",
-                    format!(
-                        "{n} is not accepted; use a number of seeds in 1..=1000000, or a list of master seeds"
-                    ),
-                ));
-            }
-            let (first_at, first) = first.map_or((offset, 0), |f| (f.span().start, f.into_inner()));
-            if first.checked_add(n - 1).is_none() {
-                return Err(src.error(first_at, "seed", format!("{first} is not accepted: the {n} seeds from it would pass 2^64 − 1; use a first seed of at most {}", u64::MAX - (n - 1))));
-            }
-            Ok((0..n).map(|i| first + i).collect())
-        }
-        SeedsField::List(v) => {
-            if let Some(f) = first {
-                return Err(src.error(f.span().start, "seed", "`seed` (the first of `seeds` seeds) cannot be combined with a list of seeds; list them all in `seeds`"));
-            }
-            if v.is_empty() {
-                return Err(src.error(offset, "seeds", "the list is empty; give at least one seed"));
-            }
-            let mut seen = BTreeSet::new();
-            for s in &v {
-                if !seen.insert(*s) {
-                    return Err(src.error(offset, "seeds", format!("seed {s} is listed twice")));
-                }
-            }
-            Ok(v)
-        }
-    }
-}
-
-/// A value of a cell field, alone in `cell`, against the rules of `mmq run`. Worlds are
-/// loaded, and robot settings applied to them, once each where the product is built.
-fn check_value(name: &str, cell: &CellFields) -> Result<(), String> {
-    match name {
-        "world" => Ok(()),
-        "robot" if cell.robot.is_empty() => {
-            Err("no overrides; give KEY=VALUE overrides of the [robot] table, e.g. \"profile=ideal\"".into())
-        }
-        "max_delay" | "lambda_hat" => {
-            let x = if name == "max_delay" { cell.max_delay } else { cell.lambda_hat };
-            if usize::try_from(x).is_err() || x > 1_000_000 {
-                return Err(format!("{x} is not accepted; use at most 1000000 steps"));
-            }
-            Ok(())
-        }
-        _ => cell
-            .run_config(PathBuf::new(), 0, &[])
-            .and_then(|c| c.validate())
-            .map(|_| ())
-            .map_err(|e| plain_message(&e)),
-    }
-}
-
-/// `curve = n` points must fall on the windows of every cell's curve.
-fn check_curve(
-    src: &Source<'_>,
-    n: u64,
-    offset: usize,
-    steps: &[toml::Value],
-    windows: &[toml::Value],
-) -> Result<(), LabError> {
-    if n == 0 || n > 1000 {
-        return Err(src.error(
-            offset,
-            "curve",
-            format!("{n} is not accepted; use a number of points in 1..=1000, e.g. 15"),
-        ));
-    }
-    let ints = |v: &[toml::Value]| {
-        v.iter().filter_map(toml::Value::as_integer).map(|x| x as u64).collect::<Vec<_>>()
+/// The spec of the products' cells one after the other: the union of their fields in
+/// canonical order (a field a part lacks reads `–` in its cells), every field that is a
+/// list in some part or differs between cells an axis, and each cell with its part's
+/// seeds when the parts' seeds differ. One product is the spec as it is.
+fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
+    let rank = |f: &str| {
+        FIELDS
+            .iter()
+            .position(|x| *x == f)
+            .unwrap_or(FIELDS.len() + usize::from(f != "robot") + usize::from(f != "robot" && f != "curve"))
     };
-    for &st in &ints(steps) {
-        for &w in &ints(windows) {
-            if !st.is_multiple_of(n) || !(st / n).is_multiple_of(w) {
-                return Err(src.error(offset, "curve", format!(
-                    "{st} steps in {n} points of {} steps each do not fall on windows of {w} steps; choose `curve` so that steps / curve is a multiple of `window`",
-                    st as f64 / n as f64
-                )));
+    let mut fields: Vec<String> = Vec::new();
+    for p in &products {
+        for (f, _) in &p.fields {
+            if !fields.contains(f) {
+                fields.push(f.clone());
             }
         }
     }
-    Ok(())
-}
-
-/// `world` with the robot overrides applied to its `[robot]` table, checked as the
-/// robot will read it (the grid ignores the table).
-fn with_robot(world: &World, overrides: &[String]) -> Result<World, String> {
-    let table = mmq_robot::apply_overrides(world.robot.as_ref(), overrides).map_err(|e| e.to_string())?;
-    let mut w = world.clone();
-    w.robot = Some(table);
-    mmq_robot::RobotConfig::from_world(&w).map_err(|e| e.to_string())?;
-    Ok(w)
-}
-
-/// A lab error's message without the command-line flag it names (`--alpha = 2 ...` →
-/// `2 ...`), for spec messages that name the field themselves.
-fn plain_message(e: &LabError) -> String {
-    match e {
-        LabError::InvalidParam { value, accepted, .. } => format!("{value} is not accepted; {accepted}"),
-        LabError::Learner(mmq_learn::LearnError::InvalidParam { value, accepted, .. }) => {
-            format!("{value} is not accepted; {accepted}")
+    fields.sort_by(|a, b| (rank(a), a).cmp(&(rank(b), b)));
+    let same_seeds = products.iter().all(|p| p.seeds == products[0].seeds);
+    let mut plan = Plan {
+        name: String::new(),
+        description: String::new(),
+        fields,
+        axes: Vec::new(),
+        seeds: Vec::new(),
+        cells: Vec::new(),
+    };
+    let (mut configs, mut world_of, mut worlds) = (Vec::new(), Vec::new(), Vec::new());
+    let mut listed = BTreeSet::new();
+    let mut ids = HashMap::new();
+    for p in products {
+        let at: Vec<Option<usize>> =
+            plan.fields.iter().map(|f| p.fields.iter().position(|(g, _)| g == f)).collect();
+        listed.extend(p.fields.iter().filter(|f| f.1).map(|f| f.0.clone()));
+        for s in &p.seeds {
+            if !plan.seeds.contains(s) {
+                plan.seeds.push(*s);
+            }
         }
-        LabError::Delay(d) => d.to_string(),
-        LabError::Setting { message, .. } => message.clone(),
-        other => other.to_string(),
+        for cell in p.cells {
+            if let Some(other) = ids.insert(cell.id.clone(), plan.cells.len()) {
+                return Err(LabError::Config {
+                    file: file.to_string(),
+                    message: format!(
+                        "cells {other} and {} are the same cell ({}); a cell may be in one part only",
+                        plan.cells.len(),
+                        cell.id
+                    ),
+                });
+            }
+            let params =
+                at.iter().map(|i| i.map_or_else(|| "–".to_string(), |i| cell.params[i].clone())).collect();
+            let seeds = (!same_seeds).then(|| p.seeds.clone());
+            plan.cells.push(PlanCell { id: cell.id, params, seeds });
+        }
+        let offset = worlds.len();
+        configs.extend(p.configs);
+        world_of.extend(p.world_of.iter().map(|w| w + offset));
+        worlds.extend(p.worlds);
     }
+    plan.axes = (0..plan.fields.len())
+        .filter(|&i| {
+            listed.contains(&plan.fields[i])
+                || plan.cells.iter().any(|c| c.params[i] != plan.cells[0].params[i])
+        })
+        .map(|i| plan.fields[i].clone())
+        .collect();
+    Ok(SweepSpec { file: PathBuf::new(), text: String::new(), plan, configs, world_of, worlds, curve: 0 })
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::EnvKind;
+    use mmq_learn::LearnerKind;
 
     fn spec(text: &str) -> Result<SweepSpec, LabError> {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../worlds/sweeps");
@@ -646,5 +360,54 @@ mod tests {
         assert!(e.contains("curve:") && e.contains("multiple of `window`"), "{e}");
         let e = spec(&format!("{base}curve = 0\n")).unwrap_err().to_string();
         assert!(e.contains("curve: 0 is not accepted"), "{e}");
+    }
+
+    /// A spec in parts: each `[[part]]` is a product over the top-level fields, which it
+    /// overrides, with its own seeds and settings; the cells are the parts' cells in
+    /// order, each with its part's seeds, and the jobs follow them.
+    #[test]
+    fn parts_are_products_of_their_own() {
+        let base = "world = \"../paper-3x3.toml\"\nlearner = [\"q\", \"mmq\"]\nsteps = 100\nseeds = 2\n";
+        let s = spec(&format!(
+            "{base}[[part]]\ndelay = [\"poisson:1\", \"poisson:2\"]\n[[part]]\nlearner = \"deconv-q\"\ndelay = \"poisson:3\"\nseeds = [7, 8, 9]\n[part.settings]\ntold_delay = \"poisson:3\"\n"
+        ))
+        .unwrap();
+        let p = &s.plan;
+        assert_eq!(p.cells.len(), 5);
+        assert_eq!(p.axes, ["learner", "delay", "settings.told_delay"]);
+        assert_eq!(p.param(4, "learner"), "deconv-q");
+        assert_eq!(
+            (p.param(0, "settings.told_delay"), p.param(4, "settings.told_delay")),
+            ("–", "poisson:3")
+        );
+        assert_eq!((p.seeds_of(0), p.seeds_of(4)), (&[0, 1][..], &[7, 8, 9][..]));
+        assert_eq!(p.seeds, [0, 1, 7, 8, 9]);
+        assert_eq!(p.jobs(), 4 * 2 + 3);
+        assert_eq!((p.job(7), p.job(8), p.job(10)), ((3, 1), (4, 7), (4, 9)));
+        assert_eq!((p.cell_jobs(3), p.cell_jobs(4)), (6..8, 8..11));
+        assert_eq!(p.size(), "5 cells, 11 jobs (seeds per part)");
+        let told = s.config(4).learner.settings.deconv().and_then(|d| d.told_delay.clone());
+        assert_eq!(told.as_deref(), Some("poisson:3"));
+        assert_eq!((s.config(1).delay.as_str(), s.config(4).steps), ("poisson:2", 100));
+        // A part alone is the spec it describes, with the same cell ids.
+        let alone = spec(&format!("{base}delay = [\"poisson:1\", \"poisson:2\"]\n")).unwrap();
+        let ids = |p: &Plan| p.cells.iter().map(|c| c.id.clone()).collect::<Vec<_>>();
+        assert_eq!(ids(&alone.plan), ids(p)[..4]);
+        assert_eq!(alone.plan.size(), "4 cells × 2 seeds = 8 jobs");
+
+        let e = spec(&format!("{base}[[part]]\ndelay = \"poisson:1\"\n[[part]]\ndelay = \"poisson:1\"\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("are the same cell") && e.contains("one part only"), "{e}");
+        let e = spec(&format!("{base}[[part]]\ndelai = \"poisson:1\"\n")).unwrap_err().to_string();
+        assert!(e.contains("t.toml:6:1: delai: unknown field `delai`"), "{e}");
+        let e = spec(&format!("{base}[[part]]\nname = \"x\"\n")).unwrap_err().to_string();
+        assert!(e.contains("name: a part gives cell fields"), "{e}");
+        let e = spec(&format!("{base}[[part]]\nalpha = [0.1, 2]\n")).unwrap_err().to_string();
+        assert!(e.contains("t.toml:6:9: alpha[1]: 2 is not accepted"), "{e}");
+        let e = spec(&format!("{base}part = []\n")).unwrap_err().to_string();
+        assert!(e.contains("part: no parts"), "{e}");
+        let e = spec(&format!("{base}[[part]]\nseeds = \"all\"\n")).unwrap_err().to_string();
+        assert!(e.contains("t.toml:6:9: seeds:"), "{e}");
     }
 }

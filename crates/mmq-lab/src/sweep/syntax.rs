@@ -9,10 +9,11 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
 use toml::Spanned;
 
+use super::cell::CellFields;
 use crate::error::LabError;
 
 /// `seeds = N` (N seeds from `seed`) or `seeds = [s1, s2, ...]` (explicit master seeds).
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub(super) enum SeedsField {
     Count(u64),
     List(Vec<u64>),
@@ -105,10 +106,112 @@ pub(super) struct Meta {
     /// The `[settings]` table under the name specs of stored sweeps give it; read the
     /// same way, and its fields keep the prefix `beyond.` so their reports stay as they were.
     pub(super) beyond: Option<BTreeMap<String, Spanned<toml::Value>>>,
+    /// Parts (`[[part]]`): each a product of its own over the top-level fields, which it
+    /// may override, with its own seeds; the spec's cells are the parts' cells in order.
+    pub(super) part: Option<Vec<Table>>,
 }
 
 /// The keys of [`Meta`]: every other top-level key is a cell field.
-pub(super) const META: [&str; 7] = ["name", "description", "seeds", "seed", "curve", "settings", "beyond"];
+pub(super) const META: [&str; 8] =
+    ["name", "description", "seeds", "seed", "curve", "settings", "beyond", "part"];
+
+/// A TOML table with the places of its keys and values.
+pub(super) type Table = BTreeMap<Spanned<String>, Spanned<toml::Value>>;
+
+/// What a spec, or one part of it, gives: cell fields, learner settings and seeds.
+#[derive(Clone, Debug)]
+pub(super) struct Given {
+    pub(super) fields: BTreeMap<String, Spanned<toml::Value>>,
+    /// The name of the settings table: `settings`, or `beyond` in stored specs.
+    pub(super) prefix: &'static str,
+    pub(super) settings: BTreeMap<String, Spanned<toml::Value>>,
+    pub(super) seeds: Option<Spanned<SeedsField>>,
+    pub(super) seed: Option<Spanned<u64>>,
+}
+
+impl Given {
+    /// What the spec's top level gives: the keys of `doc` that are not [`META`], and the
+    /// settings and seeds of `meta`.
+    pub(super) fn top(src: &Source<'_>, doc: Table, meta: &mut Meta) -> Result<Given, LabError> {
+        let (prefix, settings) = match (meta.settings.take(), meta.beyond.take()) {
+            (Some(_), Some(b)) => {
+                let at = b.values().next().map_or(0, |v| v.span().start);
+                return Err(src.error(at, "beyond", "give the learner settings in one table, [settings]"));
+            }
+            (Some(t), None) => ("settings", t),
+            (None, Some(b)) => ("beyond", b),
+            (None, None) => ("settings", BTreeMap::new()),
+        };
+        let mut g = Given {
+            fields: BTreeMap::new(),
+            prefix,
+            settings,
+            seeds: meta.seeds.take(),
+            seed: meta.seed.take(),
+        };
+        for (key, value) in doc {
+            if !META.contains(&key.get_ref().as_str()) {
+                g.field(src, key, value)?;
+            }
+        }
+        Ok(g)
+    }
+
+    /// `self` with what `part` gives over it: its fields and settings replace those of
+    /// the same name, its `seeds` and `seed` the spec's.
+    pub(super) fn with_part(&self, src: &Source<'_>, part: Table) -> Result<Given, LabError> {
+        let mut g = self.clone();
+        for (key, value) in part {
+            let span = value.span();
+            let at =
+                |e: toml::de::Error, name: &str| src.error(span.start, name, e.message().trim().to_string());
+            match key.get_ref().as_str() {
+                "seeds" => {
+                    let seeds = SeedsField::deserialize(value.into_inner()).map_err(|e| at(e, "seeds"))?;
+                    g.seeds = Some(Spanned::new(span, seeds));
+                }
+                "seed" => {
+                    let seed = u64::deserialize(value.into_inner()).map_err(|e| at(e, "seed"))?;
+                    g.seed = Some(Spanned::new(span, seed));
+                }
+                "settings" if g.prefix == "settings" => {
+                    let table =
+                        toml::Table::deserialize(value.into_inner()).map_err(|e| at(e, "settings"))?;
+                    for (k, v) in table {
+                        g.settings.insert(k, Spanned::new(span.clone(), v));
+                    }
+                }
+                name @ ("name" | "description" | "curve" | "part" | "settings" | "beyond") => {
+                    return Err(src.error(
+                        key.span().start,
+                        name,
+                        "a part gives cell fields, `seeds`, `seed` and [part.settings] only; give this at the top of the spec (with the settings in [settings])",
+                    ));
+                }
+                _ => g.field(src, key, value)?,
+            }
+        }
+        Ok(g)
+    }
+
+    /// Takes the cell field `key = value`; a key that is not one is refused by the
+    /// cells' own deserialisation.
+    fn field(
+        &mut self,
+        src: &Source<'_>,
+        key: Spanned<String>,
+        value: Spanned<toml::Value>,
+    ) -> Result<(), LabError> {
+        let (at, name) = (key.span().start, key.into_inner());
+        if let Err(m) = CellFields::from_values([(name.as_str(), value.get_ref())])
+            && m.starts_with("unknown field")
+        {
+            return Err(src.error(at, &name, format!("{m}; see docs/sweeps.md")));
+        }
+        self.fields.insert(name, value);
+        Ok(())
+    }
+}
 
 /// Where in the spec text an error is, for messages `FILE:LINE:COLUMN: FIELD: ...`.
 pub(super) struct Source<'a> {
