@@ -2,6 +2,7 @@
 //! paths, cell-id hashing, and shards (disjoint parts of the jobs).
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use serde::{Deserialize, Serialize};
 
@@ -9,7 +10,7 @@ use crate::error::LabError;
 
 /// Cells, seeds and swept axes of a sweep: everything its outputs are keyed by. Shards
 /// of one sweep have equal plans; [`super::merge`] checks it.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Plan {
     /// Name of the sweep (spec `name`, default the file stem).
     pub name: String,
@@ -24,6 +25,18 @@ pub struct Plan {
     pub seeds: Vec<u64>,
     /// The cells in product order (first field outermost).
     pub cells: Vec<PlanCell>,
+    /// Where each cell's jobs start, when cells have seeds of their own (computed once,
+    /// on first use).
+    #[serde(skip)]
+    starts: OnceLock<Vec<usize>>,
+}
+
+/// Plans are equal when what they say is (the job index is derived from it).
+impl PartialEq for Plan {
+    fn eq(&self, o: &Plan) -> bool {
+        (&self.name, &self.description, &self.fields, &self.axes, &self.seeds, &self.cells)
+            == (&o.name, &o.description, &o.fields, &o.axes, &o.seeds, &o.cells)
+    }
 }
 
 /// One cell of the product.
@@ -40,18 +53,38 @@ pub struct PlanCell {
 }
 
 impl Plan {
+    /// A plan of these cells.
+    pub fn new(
+        name: String,
+        description: String,
+        fields: Vec<String>,
+        axes: Vec<String>,
+        seeds: Vec<u64>,
+        cells: Vec<PlanCell>,
+    ) -> Plan {
+        Plan { name, description, fields, axes, seeds, cells, starts: OnceLock::new() }
+    }
+
     /// Number of (cell, seed) jobs.
     pub fn jobs(&self) -> usize {
-        if self.uniform() {
-            self.cells.len() * self.seeds.len()
-        } else {
-            (0..self.cells.len()).map(|c| self.seeds_of(c).len()).sum()
-        }
+        if self.uniform() { self.cells.len() * self.seeds.len() } else { *self.starts().last().unwrap_or(&0) }
     }
 
     /// Whether every cell runs [`Plan::seeds`] (no cell has seeds of its own).
     pub fn uniform(&self) -> bool {
         self.cells.iter().all(|c| c.seeds.is_none())
+    }
+
+    /// Where the jobs of each cell start, and after the last one the number of jobs.
+    fn starts(&self) -> &[usize] {
+        self.starts.get_or_init(|| {
+            let mut v = Vec::with_capacity(self.cells.len() + 1);
+            v.push(0);
+            for c in 0..self.cells.len() {
+                v.push(v[c] + self.seeds_of(c).len());
+            }
+            v
+        })
     }
 
     /// The master seeds of cell `c`.
@@ -65,8 +98,8 @@ impl Plan {
             let n = self.seeds.len();
             c * n..(c + 1) * n
         } else {
-            let start = (0..c).map(|k| self.seeds_of(k).len()).sum();
-            start..start + self.seeds_of(c).len()
+            let s = self.starts();
+            s[c]..s[c + 1]
         }
     }
 
@@ -76,15 +109,9 @@ impl Plan {
             let n = self.seeds.len().max(1);
             return (j / n, self.seeds[j % n]);
         }
-        let mut start = 0;
-        for c in 0..self.cells.len() {
-            let seeds = self.seeds_of(c);
-            if j < start + seeds.len() {
-                return (c, seeds[j - start]);
-            }
-            start += seeds.len();
-        }
-        panic!("job {j} of a plan of {start} jobs")
+        // The last cell whose jobs start at or before j.
+        let c = self.starts().partition_point(|&s| s <= j) - 1;
+        (c, self.seeds_of(c)[j - self.starts()[c]])
     }
 
     /// Its size in words: `6 cells × 3 seeds = 18 jobs`, or for cells with seeds of their

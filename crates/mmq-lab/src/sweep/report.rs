@@ -244,14 +244,8 @@ pub fn combine(parts: &[(Plan, Vec<CellStats>)]) -> (Plan, Vec<CellStats>) {
         .filter(|&i| cells.iter().any(|c: &super::PlanCell| c.params[i] != cells[0].params[i]))
         .map(|i| fields[i].clone())
         .collect();
-    let plan = Plan {
-        name: parts.iter().map(|p| p.0.name.as_str()).collect::<Vec<_>>().join(" + "),
-        description: String::new(),
-        fields,
-        axes,
-        seeds,
-        cells,
-    };
+    let name = parts.iter().map(|p| p.0.name.as_str()).collect::<Vec<_>>().join(" + ");
+    let plan = Plan::new(name, String::new(), fields, axes, seeds, cells);
     (plan, stats)
 }
 

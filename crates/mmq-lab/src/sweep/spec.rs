@@ -117,54 +117,45 @@ fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
     }
     fields.sort_by(|a, b| (rank(a), a).cmp(&(rank(b), b)));
     let same_seeds = products.iter().all(|p| p.seeds == products[0].seeds);
-    let mut plan = Plan {
-        name: String::new(),
-        description: String::new(),
-        fields,
-        axes: Vec::new(),
-        seeds: Vec::new(),
-        cells: Vec::new(),
-    };
+    let (mut seeds, mut cells) = (Vec::new(), Vec::new());
     let (mut configs, mut world_of, mut worlds) = (Vec::new(), Vec::new(), Vec::new());
     let mut listed = BTreeSet::new();
     let mut ids = HashMap::new();
     for p in products {
         let at: Vec<Option<usize>> =
-            plan.fields.iter().map(|f| p.fields.iter().position(|(g, _)| g == f)).collect();
+            fields.iter().map(|f| p.fields.iter().position(|(g, _)| g == f)).collect();
         listed.extend(p.fields.iter().filter(|f| f.1).map(|f| f.0.clone()));
         for s in &p.seeds {
-            if !plan.seeds.contains(s) {
-                plan.seeds.push(*s);
+            if !seeds.contains(s) {
+                seeds.push(*s);
             }
         }
         for cell in p.cells {
-            if let Some(other) = ids.insert(cell.id.clone(), plan.cells.len()) {
+            if let Some(other) = ids.insert(cell.id.clone(), cells.len()) {
                 return Err(LabError::Config {
                     file: file.to_string(),
                     message: format!(
                         "cells {other} and {} are the same cell ({}); a cell may be in one part only",
-                        plan.cells.len(),
+                        cells.len(),
                         cell.id
                     ),
                 });
             }
             let params =
                 at.iter().map(|i| i.map_or_else(|| "–".to_string(), |i| cell.params[i].clone())).collect();
-            let seeds = (!same_seeds).then(|| p.seeds.clone());
-            plan.cells.push(PlanCell { id: cell.id, params, seeds });
+            let own = (!same_seeds).then(|| p.seeds.clone());
+            cells.push(PlanCell { id: cell.id, params, seeds: own });
         }
         let offset = worlds.len();
         configs.extend(p.configs);
         world_of.extend(p.world_of.iter().map(|w| w + offset));
         worlds.extend(p.worlds);
     }
-    plan.axes = (0..plan.fields.len())
-        .filter(|&i| {
-            listed.contains(&plan.fields[i])
-                || plan.cells.iter().any(|c| c.params[i] != plan.cells[0].params[i])
-        })
-        .map(|i| plan.fields[i].clone())
+    let axes = (0..fields.len())
+        .filter(|&i| listed.contains(&fields[i]) || cells.iter().any(|c| c.params[i] != cells[0].params[i]))
+        .map(|i| fields[i].clone())
         .collect();
+    let plan = Plan::new(String::new(), String::new(), fields, axes, seeds, cells);
     Ok(SweepSpec { file: PathBuf::new(), text: String::new(), plan, configs, world_of, worlds, curve: 0 })
 }
 
