@@ -32,6 +32,34 @@ pub(super) struct Product {
     pub(super) worlds: Vec<World>,
 }
 
+/// The fields of a product: every field's values as an axis, in canonical order.
+struct Axes {
+    axes: Vec<Axis>,
+    /// The axes before this one are cell fields ([`CellFields`]).
+    n_fields: usize,
+    /// The axes from this one on are learner settings, named by `keys`.
+    settings_at: usize,
+    keys: Vec<String>,
+}
+
+impl Axes {
+    fn at(&self, name: &str) -> Option<usize> {
+        self.axes.iter().position(|a| a.name == name)
+    }
+
+    fn named(&self, name: &str) -> &Axis {
+        &self.axes[self.at(name).unwrap_or_else(|| panic!("no field `{name}`"))]
+    }
+}
+
+/// Worlds loaded once each: per world value its path and the digest of its text, and
+/// per (world, robot setting) the world with the setting applied.
+struct Worlds {
+    paths: Vec<PathBuf>,
+    digests: Vec<String>,
+    loaded: Vec<World>,
+}
+
 /// The product of what `g` gives. `curve` is the spec's, `base` the directory relative
 /// world paths start from, `budget` the jobs the product may have at most.
 pub(super) fn product(
@@ -41,9 +69,38 @@ pub(super) fn product(
     base: &Path,
     budget: usize,
 ) -> Result<Product, LabError> {
-    // The fields in FIELDS order (absent ones at their defaults), then `robot` and
-    // `curve` only when given, so that the cell ids of specs without them stay as
-    // they were; then the learner settings.
+    let (seeds, seed) = (g.seeds.take(), g.seed.take());
+    let ax = axes(src, g, curve)?;
+    check_values(src, &ax)?;
+    let seeds = seeds_of(src, seeds, seed)?;
+    let robot = ax.at("robot").map(|k| &ax.axes[k]);
+    let worlds = load_worlds(src, &ax.axes[0], robot, base)?;
+    if let Some(r) = robot
+        && !ax.named("env").texts.iter().any(|e| e == EnvKind::Robot.name())
+    {
+        return Err(src.error(
+            r.offset,
+            "robot",
+            "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
+        ));
+    }
+    if let Some(c) = curve {
+        check_curve(
+            src,
+            *c.get_ref(),
+            c.span().start,
+            &ax.named("steps").values,
+            &ax.named("window").values,
+        )?;
+    }
+    cells(src, &ax, seeds, worlds, budget)
+}
+
+/// The fields `g` gives in FIELDS order (absent ones at their defaults), then `robot` and
+/// `curve` only when given, so that the cell ids of specs without them stay as they
+/// were; then the learner settings. Each value of a cell field is read on its own (its
+/// type, and its canonical text); empty lists and values listed twice are refused.
+fn axes(src: &Source<'_>, mut g: Given, curve: Option<&Spanned<u64>>) -> Result<Axes, LabError> {
     let defaults = match toml::Value::try_from(CellFields::default()) {
         Ok(toml::Value::Table(t)) => t,
         _ => unreachable!("a struct serialises to a table"),
@@ -55,10 +112,10 @@ pub(super) fn product(
             (None, Some(d)) if name != "world" => axes.push(Axis::default_of(name, d.clone())),
             (None, _) => {
                 return Err(src.error(
-                        0,
-                        "world",
-                        "missing field `world`: give a world file (relative to the spec's directory), or a list of them",
-                    ));
+                    0,
+                    "world",
+                    "missing field `world`: give a world file (relative to the spec's directory), or a list of them",
+                ));
             }
         }
     }
@@ -67,7 +124,6 @@ pub(super) fn product(
     }
     debug_assert!(g.fields.is_empty(), "a cell field outside FIELDS and robot: {:?}", g.fields);
     let n_fields = axes.len();
-    // Every value of a cell field on its own: its type, and its canonical text.
     for axis in &mut axes {
         for i in 0..axis.values.len() {
             let cell = CellFields::from_values([(axis.name.as_str(), &axis.values[i])])
@@ -94,11 +150,15 @@ pub(super) fn product(
             }
         }
     }
-    let at = |name: &str| axes.iter().position(|a| a.name == name);
-    let (world, env, learner) = (&axes[0], &axes[at("env").unwrap_or(1)], &axes[at("learner").unwrap_or(2)]);
+    Ok(Axes { axes, n_fields, settings_at, keys })
+}
 
-    // Every value against the rules of `mmq run`.
-    for axis in &axes[..n_fields] {
+/// Every value against the rules of `mmq run`. A learner setting (`max_delay`,
+/// `lambda_hat` when given, those of `[settings]`) applies to the cells whose learner has
+/// it; one no learner of the sweep has is an error, and each value is checked by the
+/// first learner that has it.
+fn check_values(src: &Source<'_>, ax: &Axes) -> Result<(), LabError> {
+    for axis in &ax.axes[..ax.n_fields] {
         for (i, v) in axis.values.iter().enumerate() {
             let cell = CellFields::from_values([(axis.name.as_str(), v)])
                 .map_err(|m| src.error(axis.offset, &axis.item(i), m))?;
@@ -106,15 +166,12 @@ pub(super) fn product(
         }
     }
     let learners: Vec<LearnerKind> =
-        learner.texts.iter().filter_map(|l| LearnerKind::parse(l).ok()).collect();
-    // A learner setting (`max_delay`, `lambda_hat` when given, those of `[settings]`)
-    // applies to the cells whose learner has it; one no learner of the sweep has is an
-    // error, and each value is checked by the first learner that has it.
-    let learner_settings = axes
+        ax.named("learner").texts.iter().filter_map(|l| LearnerKind::parse(l).ok()).collect();
+    let learner_settings = ax.axes[..ax.n_fields]
         .iter()
         .filter(|a| a.given && LEARNER_FIELDS.contains(&a.name.as_str()))
         .map(|a| (a.name.as_str(), a))
-        .chain(keys.iter().map(String::as_str).zip(&axes[settings_at..]));
+        .chain(ax.keys.iter().map(String::as_str).zip(&ax.axes[ax.settings_at..]));
     for (k, axis) in learner_settings {
         let Some(&kind) = learners.iter().find(|&&l| has_setting(l, k)) else {
             let names: Vec<&str> = learners.iter().map(|l| l.name()).collect();
@@ -136,55 +193,55 @@ pub(super) fn product(
                 .map_err(|e| src.error(axis.offset, &axis.item(i), plain_message(&e)))?;
         }
     }
-    let seeds = seeds_of(src, g.seeds, g.seed)?;
+    Ok(())
+}
 
-    // Worlds: loaded once each, hashed for the cell ids.
-    let robot_at = at("robot");
-    let robot = robot_at.map(|k| &axes[k]);
-    let mut worlds = Vec::new();
-    let mut world_paths = Vec::new();
-    let mut world_digests = Vec::new();
-    for (i, w) in world.texts.iter().enumerate() {
-        let p = Path::new(w);
+/// The worlds of `world`, loaded once each and hashed for the cell ids, each with every
+/// robot setting applied (world-major).
+fn load_worlds(
+    src: &Source<'_>,
+    world: &Axis,
+    robot: Option<&Axis>,
+    base: &Path,
+) -> Result<Worlds, LabError> {
+    let mut w = Worlds { paths: Vec::new(), digests: Vec::new(), loaded: Vec::new() };
+    for (i, name) in world.texts.iter().enumerate() {
+        let p = Path::new(name);
         let path = if p.is_absolute() { p.to_path_buf() } else { base.join(p) };
         // World::load reads at most MAX_FILE_BYTES (or takes the shipped copy); the
         // digest is of the text it parsed.
         let loaded =
             World::load(&path).map_err(|e| src.error(world.offset, &world.item(i), e.to_string()))?;
-        let bytes = loaded.source.clone().into_bytes();
+        w.digests.push(format!("{:016x}", fnv1a(loaded.source.as_bytes())));
         match robot {
-            None => worlds.push(loaded),
+            None => w.loaded.push(loaded),
             Some(r) => {
                 for (k, setting) in r.values.iter().enumerate() {
                     let overrides = CellFields::from_values([("robot", setting)]).map(|c| c.robot.0);
-                    worlds.push(
+                    w.loaded.push(
                         overrides
                             .and_then(|o| with_robot(&loaded, &o))
-                            .map_err(|m| src.error(r.offset, &r.item(k), format!("{m} (world `{w}`)")))?,
+                            .map_err(|m| src.error(r.offset, &r.item(k), format!("{m} (world `{name}`)")))?,
                     );
                 }
             }
         }
-        world_paths.push(path);
-        world_digests.push(format!("{:016x}", fnv1a(&bytes)));
+        w.paths.push(path);
     }
-    let robot_settings = robot.map_or(1, |r| r.values.len());
-    if let Some(r) = robot
-        && !env.texts.iter().any(|e| e == EnvKind::Robot.name())
-    {
-        return Err(src.error(
-                r.offset,
-                "robot",
-                "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
-            ));
-    }
-    if let Some(c) = curve {
-        let steps = &axes[at("steps").unwrap_or(10)].values;
-        let windows = &axes[at("window").unwrap_or(11)].values;
-        check_curve(src, *c.get_ref(), c.span().start, steps, windows)?;
-    }
+    Ok(w)
+}
 
-    // The product, first field outermost.
+/// The cells of the product, first field outermost, each with its id (a hash of its
+/// values as written and of its world's text) and its values deserialised into its
+/// fields and from them into its run configuration.
+fn cells(
+    src: &Source<'_>,
+    ax: &Axes,
+    seeds: Vec<u64>,
+    worlds: Worlds,
+    budget: usize,
+) -> Result<Product, LabError> {
+    let axes = &ax.axes;
     let lens: Vec<usize> = axes.iter().map(|a| a.values.len()).collect();
     let n_cells = lens.iter().try_fold(1usize, |a, &l| a.checked_mul(l)).unwrap_or(usize::MAX);
     if n_cells.saturating_mul(seeds.len()) > budget {
@@ -198,13 +255,15 @@ pub(super) fn product(
             ),
         ));
     }
+    let robot_at = ax.at("robot");
+    let robot_settings = robot_at.map_or(1, |k| axes[k].values.len());
     let mut cells = Vec::with_capacity(n_cells);
     let mut configs = Vec::with_capacity(n_cells);
     let mut world_of = Vec::with_capacity(n_cells);
     let mut ids = HashMap::new();
     let mut idx = vec![0usize; axes.len()];
     for _ in 0..n_cells {
-        let params: Vec<String> = idx.iter().zip(&axes).map(|(&i, a)| a.texts[i].clone()).collect();
+        let params: Vec<String> = idx.iter().zip(axes).map(|(&i, a)| a.texts[i].clone()).collect();
         let mut key = String::from("mmq-sweep-cell/1\n");
         for (a, v) in axes.iter().zip(&params) {
             // Learner settings enter the id as `beyond.KEY`, so that a spec keeps its
@@ -213,7 +272,7 @@ pub(super) fn product(
                 a.name.strip_prefix("settings.").map_or_else(|| a.name.clone(), |k| format!("beyond.{k}"));
             let _ = writeln!(key, "{f}={v}");
         }
-        let _ = writeln!(key, "world_bytes={}", world_digests[idx[0]]);
+        let _ = writeln!(key, "world_bytes={}", worlds.digests[idx[0]]);
         let id = format!("{:016x}", fnv1a(key.as_bytes()));
         if let Some(other) = ids.insert(id.clone(), cells.len()) {
             return Err(LabError::Config {
@@ -224,17 +283,17 @@ pub(super) fn product(
                 ),
             });
         }
-        // The cell's values, deserialised into its fields and then its configuration.
-        let in_cell = |k: usize| (k < n_fields).then(|| (axes[k].name.as_str(), &axes[k].values[idx[k]]));
-        let settings: Vec<(&str, &toml::Value)> = keys
+        let in_cell = |k: usize| (k < ax.n_fields).then(|| (axes[k].name.as_str(), &axes[k].values[idx[k]]));
+        let settings: Vec<(&str, &toml::Value)> = ax
+            .keys
             .iter()
-            .zip(&idx[settings_at..])
-            .zip(&axes[settings_at..])
+            .zip(&idx[ax.settings_at..])
+            .zip(&axes[ax.settings_at..])
             .map(|((k, &i), a)| (k.as_str(), &a.values[i]))
             .collect();
         let cfg = CellFields::from_values((0..axes.len()).filter_map(in_cell))
             .map_err(|message| LabError::Config { file: src.file.to_string(), message })
-            .and_then(|cell| cell.run_config(world_paths[idx[0]].clone(), seeds[0], &settings))
+            .and_then(|cell| cell.run_config(worlds.paths[idx[0]].clone(), seeds[0], &settings))
             .map_err(|e| LabError::Config {
                 file: src.file.to_string(),
                 message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
@@ -257,7 +316,7 @@ pub(super) fn product(
         cells,
         configs,
         world_of,
-        worlds,
+        worlds: worlds.loaded,
     })
 }
 
