@@ -25,6 +25,7 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
         steps: a.steps,
         seed: a.seed,
         out: a.out,
+        specs: None,
     };
     let done = mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet)).map_err(|e| match e {
         ReportError::UnknownFigure(_) => crate::input_error(format!("--fig {e}")),

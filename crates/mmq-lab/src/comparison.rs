@@ -13,7 +13,7 @@
 //! (`--seeds` sets them all).
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
@@ -26,7 +26,7 @@ use crate::config::RunConfig;
 use crate::error::LabError;
 use crate::paper::Group;
 use crate::runner::DIAGNOSTICS_EVERY;
-use crate::sweep::{SweepSpec, csv_field};
+use crate::sweep::csv_field;
 
 /// Every learner of the study, in report order.
 pub const LEARNERS: [LearnerKind; 8] = [
@@ -62,7 +62,7 @@ pub const DECONV: [LearnerKind; 2] = [LearnerKind::DeconvQ, LearnerKind::DeconvM
 pub const JUDGE_AT: u64 = 50_000;
 
 /// The study's spec (`worlds/sweeps/paper-comparison.toml`, built into the binary): the
-/// settings it runs and their seeds.
+/// settings it runs and their seeds. [`crate::paper::SPECS`] lists it with the figures.
 pub const SPEC: &str = include_str!("../../../worlds/sweeps/paper-comparison.toml");
 
 /// Budget of the study: the spec's seeds (20 per headline setting on 9×9, 5 for the rest
@@ -83,6 +83,10 @@ pub struct ComparisonOptions {
     pub worlds: PathBuf,
     /// Steps per curve point.
     pub window: u64,
+    /// A folder whose `paper-comparison.toml`, if there is one, is run instead of the
+    /// built-in spec.
+    #[serde(default)]
+    pub specs: Option<PathBuf>,
 }
 
 impl ComparisonOptions {
@@ -90,7 +94,7 @@ impl ComparisonOptions {
     /// × 20,000).
     pub fn new(quick: bool) -> Self {
         let (steps, window) = if quick { (20_000, 1000) } else { (150_000, 2500) };
-        Self { seeds: None, quick, steps, seed: 0, worlds: PathBuf::from("worlds"), window }
+        Self { seeds: None, quick, steps, seed: 0, worlds: PathBuf::from("worlds"), window, specs: None }
     }
 
     /// The same seed count `n` for every setting.
@@ -162,7 +166,7 @@ pub fn delay_label(delay: &str) -> String {
 /// report order: the told-pmf ablation last, otherwise by world, delay, ε and learner in
 /// the order the spec first names them.
 pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError> {
-    let spec = SweepSpec::parse(SPEC, Path::new("paper-comparison.toml"))?;
+    let spec = crate::paper::figure_spec(o.specs.as_deref(), "paper-comparison")?;
     let mut v = Vec::with_capacity(spec.plan.cells.len());
     for c in 0..spec.plan.cells.len() {
         let cell = spec.config(c);

@@ -35,6 +35,11 @@ pub struct PaperOptions {
     pub worlds: PathBuf,
     /// Steps per curve point.
     pub window: u64,
+    /// A folder of figure specs: a file there named as a shipped spec
+    /// (`paper-fig6.toml`, ...) is run instead of the built-in copy, so that an edited
+    /// copy gives the same figure and report section for the variant.
+    #[serde(default)]
+    pub specs: Option<PathBuf>,
 }
 
 impl PaperOptions {
@@ -46,7 +51,7 @@ impl PaperOptions {
             (true, EnvKind::Grid) => (6, 30_000, 1000),
             (true, EnvKind::Robot) => (2, 3000, 100),
         };
-        Self { seeds, steps, seed: 0, env, worlds: PathBuf::from("worlds"), window }
+        Self { seeds, steps, seed: 0, env, worlds: PathBuf::from("worlds"), window, specs: None }
     }
 
     fn world(&self, name: &str) -> Result<World, LabError> {
@@ -182,10 +187,28 @@ pub const SPECS: &[(&str, &str)] = &[
     ("paper-comparison", crate::comparison::SPEC),
 ];
 
-/// The settings of the shipped spec `name` at the budget of `o`: one configuration per
+/// The settings of the figure spec `name` at the budget of `o`: one configuration per
 /// cell, in the spec's cell order, each with `o`'s seeds; steps and curve windows are
 /// the spec's scaled by `o.steps / PAPER_STEPS` and `o.window / PAPER_WINDOW`.
 pub fn spec_configs(o: &PaperOptions, name: &str) -> Result<Vec<RunConfig>, LabError> {
+    let spec = figure_spec(o.specs.as_deref(), name)?;
+    Ok((0..spec.plan.cells.len())
+        .map(|c| at_budget(spec.config(c), o.steps, o.window, o.seed, o.seeds))
+        .collect())
+}
+
+/// The figure spec `name`: the file `name.toml` in `folder` when there is one (relative
+/// world paths start from the folder), else the built-in copy.
+pub fn figure_spec(folder: Option<&Path>, name: &str) -> Result<SweepSpec, LabError> {
+    if let Some(d) = folder.filter(|d| !d.is_dir()) {
+        return Err(LabError::Config {
+            file: d.display().to_string(),
+            message: "not a folder; give the folder that holds your copies of figure specs (e.g. an edited paper-fig6.toml)".into(),
+        });
+    }
+    if let Some(file) = folder.map(|d| d.join(format!("{name}.toml"))).filter(|f| f.exists()) {
+        return SweepSpec::load(&file);
+    }
     let text = SPECS.iter().find(|s| s.0 == name).map(|s| s.1).ok_or_else(|| LabError::Config {
         file: format!("{name}.toml"),
         message: format!(
@@ -193,10 +216,7 @@ pub fn spec_configs(o: &PaperOptions, name: &str) -> Result<Vec<RunConfig>, LabE
             SPECS.iter().map(|s| s.0).collect::<Vec<_>>().join(", ")
         ),
     })?;
-    let spec = SweepSpec::parse(text, Path::new(&format!("{name}.toml")))?;
-    Ok((0..spec.plan.cells.len())
-        .map(|c| at_budget(spec.config(c), o.steps, o.window, o.seed, o.seeds))
-        .collect())
+    SweepSpec::parse(text, Path::new(&format!("{name}.toml")))
 }
 
 /// A spec cell's configuration at a budget: its steps and curve window scaled by

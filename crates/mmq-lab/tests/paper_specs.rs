@@ -106,3 +106,35 @@ fn a_smaller_budget_scales_every_figure_alike() {
     assert_eq!(h[0].learner.kind(), LearnerKind::Mmq);
     assert!(paper::spec_configs(&o, "paper-fig5").is_err());
 }
+
+/// A folder of specs replaces the built-in figure of the same name (an edited copy of
+/// `paper-fig6.toml` gives Fig. 6 for the variant) and leaves the others; a folder that
+/// is not one, and a bad copy, are errors naming the file.
+#[test]
+fn a_folder_of_specs_replaces_the_built_in_figure_of_the_same_name() {
+    let d = tempfile::tempdir().unwrap();
+    let f6 = paper::SPECS.iter().find(|s| s.0 == "paper-fig6").unwrap().1;
+    assert!(f6.contains("epsilon = 0.01\n"));
+    std::fs::write(d.path().join("paper-fig6.toml"), f6.replace("epsilon = 0.01\n", "epsilon = 0.2\n"))
+        .unwrap();
+    let mut o = PaperOptions::new(true, EnvKind::Grid);
+    let built_in = paper::fig6_configs(&o).unwrap();
+    o.specs = Some(d.path().to_path_buf());
+    let variant = paper::fig6_configs(&o).unwrap();
+    assert_eq!(variant.len(), built_in.len());
+    for (v, b) in variant.iter().zip(&built_in) {
+        assert_eq!((v.learner.params.epsilon, b.learner.params.epsilon), (0.2, 0.01));
+        assert_eq!(
+            (v.steps, v.seeds, v.learner.kind(), &v.delay),
+            (b.steps, b.seeds, b.learner.kind(), &b.delay)
+        );
+    }
+    assert_eq!(paper::fig4_configs(&o).unwrap().len(), 21, "figures without a copy stay built in");
+
+    std::fs::write(d.path().join("paper-fig2.toml"), "world = \"paper-3x3\"\nlearner = \"qq\"\n").unwrap();
+    let e = paper::fig2_configs(&o).unwrap_err().to_string();
+    assert!(e.contains("paper-fig2.toml:2:11: learner:") && e.contains("unknown learner"), "{e}");
+    o.specs = Some(d.path().join("nowhere"));
+    let e = paper::fig6_configs(&o).unwrap_err().to_string();
+    assert!(e.contains("nowhere") && e.contains("not a folder"), "{e}");
+}

@@ -82,6 +82,9 @@ pub struct PaperRequest {
     pub seed: u64,
     /// The report's folder.
     pub out: PathBuf,
+    /// A folder of figure specs that replace the built-in ones of the same name (an
+    /// edited `paper-fig6.toml` gives Fig. 6 and its section for the variant).
+    pub specs: Option<PathBuf>,
 }
 
 impl PaperRequest {
@@ -126,6 +129,7 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
             o.window = (s / 60).max(1);
         }
         o.seed = a.seed;
+        o.specs = a.specs.clone();
         o
     };
     let grid = opts_for(EnvKind::Grid);
@@ -145,6 +149,16 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
         env!("CARGO_PKG_VERSION"),
         rayon::current_num_threads()
     );
+    if let Some(dir) = &a.specs {
+        let mine: Vec<String> =
+            paper::SPECS.iter().map(|s| format!("{}.toml", s.0)).filter(|f| dir.join(f).exists()).collect();
+        let mine = if mine.is_empty() { "none".to_string() } else { mine.join(", ") };
+        let _ = writeln!(
+            rep.md,
+            "Figure specs from `{}` (`--specs`) replace the built-in ones of the same name: {mine}.\n",
+            dir.display()
+        );
+    }
     let mut headline: Vec<(EnvKind, Vec<Group>, f64)> = Vec::new();
     for part in &parts {
         let o = &grid;
@@ -163,6 +177,7 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
                     bo.window = (s / 60).max(1);
                 }
                 bo.seed = a.seed;
+                bo.specs = a.specs.clone();
                 let sec = crate::comparison::run(&bo, &a.out, stop, prog)?;
                 rep.md.push_str(&sec.md);
                 rep.files.extend(sec.files);
