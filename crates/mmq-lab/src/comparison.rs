@@ -79,8 +79,6 @@ pub struct ComparisonOptions {
     pub steps: u64,
     /// First master seed.
     pub seed: u64,
-    /// Directory holding the world files.
-    pub worlds: PathBuf,
     /// Steps per curve point.
     pub window: u64,
     /// A folder whose `paper-comparison.toml`, if there is one, is run instead of the
@@ -94,7 +92,7 @@ impl ComparisonOptions {
     /// × 20,000).
     pub fn new(quick: bool) -> Self {
         let (steps, window) = if quick { (20_000, 1000) } else { (150_000, 2500) };
-        Self { seeds: None, quick, steps, seed: 0, worlds: PathBuf::from("worlds"), window, specs: None }
+        Self { seeds: None, quick, steps, seed: 0, window, specs: None }
     }
 
     /// The same seed count `n` for every setting.
@@ -180,9 +178,7 @@ pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError
             world,
         };
         let seeds = o.seeds_for(spec.plan.seeds_of(c).len() as u64);
-        let cfg = crate::paper::at_budget(cell, o.steps, o.window, o.seed, seeds);
-        let world = o.worlds.join(format!("{}.toml", setting.world));
-        v.push((setting, RunConfig { world, ..cfg }));
+        v.push((setting, crate::paper::at_budget(cell, o.steps, o.window, o.seed, seeds)));
     }
     let first = |key: fn(&Setting) -> String| {
         let mut seen: Vec<String> = Vec::new();

@@ -56,16 +56,18 @@ pub(crate) fn run(
     let progress = |n: u64| prog.advance(n);
     let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &progress })?;
     prog.end();
-    let mut worlds: HashMap<String, World> = HashMap::new();
-    for w in study::WORLDS {
-        worlds
-            .insert(w.to_string(), World::load(o.worlds.join(format!("{w}.toml"))).map_err(LabError::from)?);
+    let mut worlds: HashMap<std::path::PathBuf, World> = HashMap::new();
+    let mut outs: Vec<Outcome> = Vec::with_capacity(groups.len());
+    for (s, g) in settings.iter().zip(&groups) {
+        let world = match worlds.entry(g.cfg.world.clone()) {
+            std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::hash_map::Entry::Vacant(e) => {
+                let w = World::load(e.key()).map_err(LabError::from)?;
+                e.insert(w)
+            }
+        };
+        outs.push(study::outcome(s, g, world)?);
     }
-    let outs: Vec<Outcome> = settings
-        .iter()
-        .zip(&groups)
-        .map(|(s, g)| study::outcome(s, g, &worlds[&s.world]))
-        .collect::<Result<_, _>>()?;
     report(o, budget, out, &outs)
 }
 
