@@ -8,9 +8,11 @@ use mmq_lab::config::EnvKind;
 use mmq_lab::output::run_into;
 use mmq_lab::{Control, RunConfig};
 use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use mmq_report::Progress as _;
 
+use crate::Failure;
 use crate::cli::{EnvArg, RunArgs};
-use crate::{Failure, progress};
+use crate::progress::Bars;
 
 /// Stage two of the flags: a validated configuration.
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
@@ -63,8 +65,9 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let live =
         crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
     let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
-    let pb = progress::bar(total, cfg.learner.kind().name(), a.quiet);
-    let progress = |n: u64| pb.inc(n);
+    let pb = Bars::new(a.quiet);
+    pb.begin(total, cfg.learner.kind().name());
+    let progress = |n: u64| pb.advance(n);
     let ctl = Control { stop, progress: &progress };
     let claimed = |replaced: usize| {
         if replaced > 0 && !a.quiet {
@@ -77,7 +80,7 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     if let Some(l) = live {
         l.stop();
     }
-    pb.finish_and_clear();
+    pb.end();
     let written = written?;
     print!("{}", mmq_report::text::run_summary(&written.summary));
     // The summary says incomplete; the exit code and one message per lost file say why.

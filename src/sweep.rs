@@ -8,10 +8,12 @@ use std::time::Instant;
 
 use mmq_lab::Control;
 use mmq_lab::sweep::{Shard, SweepEvent, SweepSpec, merge, run_sweep};
+use mmq_report::Progress as _;
 use mmq_report::terminal as say;
 
+use crate::Failure;
 use crate::cli::{SweepAction, SweepArgs};
-use crate::{Failure, progress};
+use crate::progress::Bars;
 
 /// Runs `mmq sweep`.
 pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
@@ -45,8 +47,9 @@ fn run(
         return Ok(());
     }
     let clock = Instant::now();
-    let pb = progress::bar(0, "sweep", quiet);
-    let progress = |n: u64| pb.inc(n);
+    let pb = Bars::new(quiet);
+    pb.begin(0, "sweep");
+    let progress = |n: u64| pb.advance(n);
     let ctl = Control { stop, progress: &progress };
     let events = |e: &SweepEvent<'_>| match e {
         SweepEvent::Planned { jobs_total, jobs_here, done, baselines, steps } => {
@@ -60,7 +63,7 @@ fn run(
         SweepEvent::JobDone { .. } => {}
     };
     let outcome = run_sweep(&spec, out, shard, ctl, &events)?;
-    pb.finish_and_clear();
+    pb.end();
     let (ran, left) = say::sweep_ran(&outcome, shard.is_some(), clock.elapsed().as_secs_f64());
     println!("{ran}");
     if let Some(left) = left {
