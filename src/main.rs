@@ -46,15 +46,7 @@ pub struct Failure {
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
         let error: anyhow::Error = e.into();
-        let code = match error.downcast_ref::<mmq_lab::LabError>() {
-            Some(l) if l.is_input_error() => exit::INPUT,
-            Some(_) => exit::RUNTIME,
-            None if error.downcast_ref::<mmq_core::WorldError>().is_some() => exit::INPUT,
-            None if error.downcast_ref::<mmq_report::ReportError>().is_some_and(|r| r.is_input_error()) => {
-                exit::INPUT
-            }
-            None => exit::RUNTIME,
-        };
+        let code = if mmq_report::terminal::is_input_error(&*error) { exit::INPUT } else { exit::RUNTIME };
         Failure { code, error }
     }
 }
@@ -86,7 +78,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
             let text = mmq_report::terminal::one_line(f.error.chain().map(ToString::to_string));
-            let text = if names_fields(&f.error) { mmq_lab::fields::as_flags(&text) } else { text };
+            let text = if mmq_report::terminal::names_fields(&*f.error) {
+                mmq_lab::fields::as_flags(&text)
+            } else {
+                text
+            };
             eprintln!("error: {text}");
             ExitCode::from(f.code)
         }
@@ -125,15 +121,4 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
             Ok(())
         }
     }
-}
-
-/// Whether the error is a library's complaint about run-configuration fields (which it
-/// names in backticks, and the command line shows as the flags that set them).
-fn names_fields(e: &anyhow::Error) -> bool {
-    let learn = |l: &mmq_learn::LearnError| mmq_lab::LabError::Learner(l.clone()).names_fields();
-    e.downcast_ref::<mmq_lab::LabError>()
-        .map(mmq_lab::LabError::names_fields)
-        .or(e.downcast_ref::<mmq_report::ReportError>().map(mmq_report::ReportError::names_fields))
-        .or(e.downcast_ref::<mmq_learn::LearnError>().map(learn))
-        .unwrap_or(false)
 }

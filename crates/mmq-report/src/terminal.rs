@@ -9,9 +9,11 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use mmq_core::{World, optimum};
+use mmq_lab::LabError;
 use mmq_lab::record::Verdict;
 use mmq_lab::sweep::{MergeOutcome, Plan, Shard, SweepOutcome};
 
+use crate::ReportError;
 use crate::sweep::SweepReport;
 
 /// `mmq sweep --dry-run`: the cells and jobs, the fixed fields, every axis and the seeds.
@@ -261,6 +263,29 @@ pub fn one_line(causes: impl IntoIterator<Item = String>) -> String {
     text.chars().flat_map(|c| if c.is_control() { c.escape_debug().collect() } else { vec![c] }).collect()
 }
 
+/// Whether an error of mmq's libraries is bad input (a world file, a configuration, an
+/// impossible parameter) rather than a failure while running or writing: a front end's
+/// exit code.
+pub fn is_input_error(e: &(dyn std::error::Error + 'static)) -> bool {
+    match (e.downcast_ref::<LabError>(), e.downcast_ref::<ReportError>()) {
+        (Some(l), _) => l.is_input_error(),
+        (_, Some(r)) => r.is_input_error(),
+        _ => e.is::<mmq_core::WorldError>(),
+    }
+}
+
+/// Whether an error of mmq's libraries names run-configuration fields in backticks, which
+/// a front end shows as its own names for them (`mmq_lab::fields`).
+pub fn names_fields(e: &(dyn std::error::Error + 'static)) -> bool {
+    if let Some(l) = e.downcast_ref::<mmq_learn::LearnError>() {
+        return LabError::Learner(l.clone()).names_fields();
+    }
+    e.downcast_ref::<LabError>()
+        .map(LabError::names_fields)
+        .or(e.downcast_ref::<ReportError>().map(ReportError::names_fields))
+        .unwrap_or(false)
+}
+
 /// A duration as "1 h 02 min", "3 min 05 s" or "42 s".
 pub fn duration(secs: f64) -> String {
     let s = secs.round() as u64;
@@ -279,6 +304,25 @@ mod tests {
     fn errors_read_as_one_line_each_cause_once() {
         let causes = ["cannot write a.csv: disk full", "disk full", "bad\x1b[31m name"].map(String::from);
         assert_eq!(one_line(causes), "cannot write a.csv: disk full: bad\\u{1b}[31m name");
+    }
+
+    #[test]
+    fn errors_are_told_apart_by_kind() {
+        let param = LabError::param("alpha", 2, "use a rate in [0, 1]");
+        let io = LabError::Io { path: "a.csv".into(), source: std::io::Error::other("disk full") };
+        assert!(is_input_error(&param) && names_fields(&param));
+        assert!(!is_input_error(&io) && !names_fields(&io));
+        let figure = ReportError::UnknownFigure("5".into());
+        assert!(is_input_error(&figure) && !names_fields(&figure));
+        assert!(is_input_error(&ReportError::Lab(param)) && !is_input_error(&ReportError::Lab(io)));
+        let world = mmq_core::World::parse("map = \"\"", "w").unwrap_err();
+        assert!(is_input_error(&world) && !names_fields(&world));
+        let learn = mmq_learn::LearnError::InvalidParam { field: "gamma", value: "1".into(), accepted: "<1" };
+        assert!(names_fields(&learn) && !is_input_error(&learn));
+        let unknown = mmq_learn::LearnError::UnknownLearner { name: "x".into(), known: "q".into() };
+        assert!(!names_fields(&unknown));
+        let plain = std::io::Error::other("x");
+        assert!(!is_input_error(&plain) && !names_fields(&plain));
     }
 
     #[test]
