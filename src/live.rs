@@ -32,11 +32,7 @@ pub fn start(
     let Some(addr) = addr else { return Ok(None) };
     let name = format!("mmq run: {} on {}", cfg.learner.kind().name(), cfg.world.display());
     let live = LiveRun::start(&config("--live", addr, speed, name)?, cfg, out, pose_rate_hz)?;
-    eprintln!(
-        "live view: ws://{} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {}",
-        live.addr(),
-        cfg.seed
-    );
+    eprintln!("{}", mmq_report::terminal::live_view(live.addr(), cfg.seed));
     Ok(Some(live))
 }
 
@@ -48,14 +44,9 @@ pub fn serve(file: &Path, addr: &str, stop: &AtomicBool) -> Result<(), Failure> 
         mmq_log::LogError::NotMcap { .. } => crate::input_error(e),
         _ => Failure::from(e),
     })?;
-    let (t0, t1) = server.time_range();
     eprintln!(
-        "serving {} ({} messages, {:.1} s of simulated time) on ws://{}: open it in the Foxglove app \
-         (Open connection → Foxglove WebSocket), press play; Ctrl-C stops",
-        file.display(),
-        server.messages(),
-        t1.saturating_sub(t0) as f64 * 1e-9,
-        server.addr()
+        "{}",
+        mmq_report::terminal::serving(file, server.messages(), server.time_range(), server.addr())
     );
     server.run(stop);
     Ok(())

@@ -115,9 +115,7 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
         cli::Command::Sweep(a) => sweep::sweep(a, stop),
         cli::Command::Replay(a) => replay::replay(a, stop),
         cli::Command::Learners => {
-            for (_, name, desc) in mmq_learn::catalogue() {
-                println!("{name:<16} {desc}");
-            }
+            print!("{}", mmq_report::terminal::learners());
             Ok(())
         }
     }

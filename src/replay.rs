@@ -28,14 +28,7 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let summary = a.summary || (a.render.is_none() && !a.verify);
     // The summary says where reading stopped; otherwise one warning says it.
     if let Some(stop) = log.stop.as_ref().filter(|_| !summary) {
-        eprintln!(
-            "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",
-            a.file.display(),
-            stop.offset,
-            stop.file_len,
-            stop.reason,
-            stop.messages
-        );
+        eprintln!("{}", mmq_report::terminal::read_stopped(&a.file, stop));
     }
     if summary {
         print!("{}", mmq_log::summary(&log));

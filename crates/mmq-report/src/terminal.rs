@@ -1,9 +1,12 @@
 //! What the commands say on a terminal besides their reports: a sweep's plan and
-//! progress lines, what a merge and a sweep report wrote, the shipped worlds, a world
-//! file's check, a replay's verdict, and progress lines for batch logs. Plain functions
+//! progress lines, what a merge and a sweep report wrote, the learners, the shipped
+//! worlds, a world file's check, a live view's and a replay's lines, and progress lines
+//! for batch logs. Plain functions
 //! from results to text, so that the command line only prints them.
 
 use std::fmt::Write as _;
+use std::net::SocketAddr;
+use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -12,6 +15,7 @@ use mmq_core::{World, optimum};
 use mmq_lab::LabError;
 use mmq_lab::record::Verdict;
 use mmq_lab::sweep::{MergeOutcome, Plan, Shard, SweepOutcome};
+use mmq_log::ReadStop;
 
 use crate::ReportError;
 use crate::sweep::SweepReport;
@@ -118,6 +122,11 @@ pub fn sweep_reported(r: &SweepReport) -> String {
     )
 }
 
+/// `mmq learners`: one learner a line, name first, then what it is.
+pub fn learners() -> String {
+    mmq_learn::catalogue().into_iter().map(|(_, name, desc)| format!("{name:<16} {desc}\n")).collect()
+}
+
 /// `mmq world list`: every shipped world with its size, optimum and description.
 pub fn shipped_worlds() -> Result<String, mmq_core::WorldError> {
     let mut t = String::from("shipped worlds (use the name as --world, or copy the file to change it):\n");
@@ -136,7 +145,7 @@ pub fn shipped_worlds() -> Result<String, mmq_core::WorldError> {
 }
 
 /// `mmq world check`: the line of a valid world file.
-pub fn world_ok(file: &std::path::Path, w: &World) -> String {
+pub fn world_ok(file: &Path, w: &World) -> String {
     format!(
         "ok  {}: {} {}×{}, {} free cells, optimum {:.4} reward/step",
         file.display(),
@@ -170,6 +179,35 @@ pub fn verdict(v: &Verdict) -> (String, bool) {
             (format!("verify: interrupted after re-running {steps} steps; nothing concluded"), true)
         }
     }
+}
+
+/// The line of `mmq run --live`: where the live view is served and which seed it shows.
+pub fn live_view(addr: SocketAddr, seed: u64) -> String {
+    format!(
+        "live view: ws://{addr} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {seed}"
+    )
+}
+
+/// The line of `mmq replay --serve`: what is served where, and how to watch it.
+pub fn serving(file: &Path, messages: usize, (t0, t1): (u64, u64), addr: SocketAddr) -> String {
+    format!(
+        "serving {} ({messages} messages, {:.1} s of simulated time) on ws://{addr}: open it in the \
+         Foxglove app (Open connection → Foxglove WebSocket), press play; Ctrl-C stops",
+        file.display(),
+        t1.saturating_sub(t0) as f64 * 1e-9,
+    )
+}
+
+/// The warning for a recording whose reading stopped early.
+pub fn read_stopped(file: &Path, stop: &ReadStop) -> String {
+    format!(
+        "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",
+        file.display(),
+        stop.offset,
+        stop.file_len,
+        stop.reason,
+        stop.messages
+    )
 }
 
 /// Progress for a batch log (stderr a file or a pipe): a line at most every `every`,
@@ -360,6 +398,28 @@ mod tests {
         );
         let (text, ok) = verdict(&Verdict::Interrupted { steps: 7 });
         assert!(ok && text.ends_with("after re-running 7 steps; nothing concluded"), "{text}");
+    }
+
+    #[test]
+    fn live_and_served_lines_say_where_and_what() {
+        let addr: SocketAddr = "127.0.0.1:8765".parse().unwrap();
+        assert_eq!(
+            serving(Path::new("t.mcap"), 12, (1_000_000_000, 3_500_000_000), addr),
+            "serving t.mcap (12 messages, 2.5 s of simulated time) on ws://127.0.0.1:8765: open it in the \
+             Foxglove app (Open connection → Foxglove WebSocket), press play; Ctrl-C stops"
+        );
+        assert!(
+            live_view(addr, 7).starts_with("live view: ws://127.0.0.1:8765 (")
+                && live_view(addr, 7).ends_with("showing seed 7")
+        );
+        let stop = ReadStop { offset: 10, file_len: 20, messages: 3, reason: "truncated".into() };
+        assert_eq!(
+            read_stopped(Path::new("t.mcap"), &stop),
+            "warning: t.mcap: read stopped at byte 10 of 20 (truncated); recovered 3 messages"
+        );
+        let names: Vec<String> =
+            learners().lines().map(|l| l.split(' ').next().unwrap().to_string()).collect();
+        assert_eq!(names, mmq_learn::catalogue().iter().map(|c| c.1).collect::<Vec<_>>());
     }
 
     #[test]
