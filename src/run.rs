@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 use mmq_lab::config::EnvKind;
 use mmq_lab::output::run_into;
 use mmq_lab::{Control, RunConfig};
-use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use mmq_learn::spec::Params;
 use mmq_report::Progress as _;
 
 use crate::Failure;
@@ -16,20 +16,15 @@ use crate::progress::Bars;
 
 /// Stage two of the flags: a validated configuration.
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
-    let kind = LearnerKind::parse(&a.learner).map_err(|e| crate::input_error(format!("--learner: {e}")))?;
     // Only the settings given are set; one the learner does not have is an error.
+    let int = |x: usize| toml::Value::Integer(x.min(i64::MAX as usize) as i64);
     let given = [
-        ("max_delay", a.max_delay.map(|x| toml::Value::Integer(x.min(i64::MAX as usize) as i64))),
-        ("lambda_hat", a.lambda_hat.map(|x| toml::Value::Integer(x.min(i64::MAX as usize) as i64))),
+        ("max_delay", a.max_delay.map(int)),
+        ("lambda_hat", a.lambda_hat.map(int)),
         ("time_bin_s", a.time_bin.map(toml::Value::Float)),
     ];
-    let pairs: Vec<(&str, &toml::Value)> =
-        given.iter().filter_map(|(k, v)| v.as_ref().map(|v| (*k, v))).collect();
-    let base = LearnerSpec {
-        params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
-        ..LearnerSpec::new(kind)
-    };
-    let learner = mmq_lab::settings::with_settings(&base, &pairs)?;
+    let params = Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 };
+    let learner = mmq_lab::settings::learner(&a.learner, params, &given)?;
     let cfg = RunConfig {
         world: a.world.clone(),
         env: match a.env {

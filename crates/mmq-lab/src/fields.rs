@@ -14,6 +14,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("record.pose_rate_hz", "--record-rate"),
     ("robot", "--robot"),
     ("delay", "--delay"),
+    ("learner", "--learner"),
     ("alpha", "--alpha"),
     ("gamma", "--gamma"),
     ("epsilon", "--epsilon"),
