@@ -351,7 +351,7 @@ mod tests {
         assert!(is_input_error(&param) && names_fields(&param));
         assert!(!is_input_error(&io) && !names_fields(&io));
         let figure = ReportError::UnknownFigure("5".into());
-        assert!(is_input_error(&figure) && !names_fields(&figure));
+        assert!(is_input_error(&figure) && names_fields(&figure));
         assert!(is_input_error(&ReportError::Lab(param)) && !is_input_error(&ReportError::Lab(io)));
         let world = mmq_core::World::parse("map = \"\"", "w").unwrap_err();
         assert!(is_input_error(&world) && !names_fields(&world));
