@@ -69,10 +69,8 @@ fn main() -> ExitCode {
             }
         });
     }
-    let result = match args.threads.map(set_threads).transpose() {
-        Err(f) => Err(f),
-        Ok(_) => dispatch(args.command, &stop),
-    };
+    let threads = args.threads.map(mmq_lab::exec::set_threads).transpose();
+    let result = threads.map_err(Failure::from).and_then(|_| dispatch(args.command, &stop));
     match result {
         Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
         Ok(()) => ExitCode::SUCCESS,
@@ -87,24 +85,6 @@ fn main() -> ExitCode {
             ExitCode::from(f.code)
         }
     }
-}
-
-/// The largest `--threads` accepted: far more than any machine this runs on needs for
-/// seeds in parallel, and few enough that starting them cannot exhaust the process.
-const MAX_THREADS: usize = 256;
-
-/// Starts the worker pool with `n` threads: a bad count is bad input, a pool that cannot
-/// start (a memory or process limit) a runtime failure; neither panics.
-fn set_threads(n: usize) -> Result<(), Failure> {
-    if !(1..=MAX_THREADS).contains(&n) {
-        return Err(input_error(format!(
-            "--threads {n}: use a number of worker threads from 1 to {MAX_THREADS} (default: one per core)"
-        )));
-    }
-    rayon::ThreadPoolBuilder::new().num_threads(n).build_global().map_err(|e| Failure {
-        code: exit::RUNTIME,
-        error: anyhow::anyhow!("cannot start {n} worker threads ({e}); give fewer with --threads"),
-    })
 }
 
 fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {

@@ -84,6 +84,22 @@ pub enum LabError {
         /// One message per seed that lost output.
         lost: Vec<String>,
     },
+    /// A number of worker threads out of range.
+    #[error("`threads` {n}: use a number of worker threads from 1 to {max} (default: one per core)")]
+    Threads {
+        /// The number given.
+        n: usize,
+        /// The most accepted.
+        max: usize,
+    },
+    /// The worker pool could not start (a memory or process limit).
+    #[error("cannot start {n} worker threads ({reason}); give fewer with `threads`")]
+    Pool {
+        /// The number asked for.
+        n: usize,
+        /// Why it could not start.
+        reason: String,
+    },
     /// Writing an output failed.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -105,6 +121,8 @@ impl LabError {
                 | LabError::Setting { .. }
                 | LabError::EnvBuild(_)
                 | LabError::OutDirInUse { .. }
+                | LabError::Threads { .. }
+                | LabError::Pool { .. }
                 | LabError::Learner(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. })
         )
     }
@@ -122,6 +140,7 @@ impl LabError {
                 | LabError::Spec { .. }
                 | LabError::OutDirInUse { .. }
                 | LabError::EnvBuild(_)
+                | LabError::Threads { .. }
         )
     }
 

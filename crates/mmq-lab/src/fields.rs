@@ -26,6 +26,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("save_tables = false", "--no-tables"),
     ("out", "--out"),
     ("fig", "--fig"),
+    ("threads", "--threads"),
 ];
 
 fn rewrite(text: &str, to: impl Fn(&str, &str) -> String) -> String {
