@@ -5,7 +5,6 @@
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::EnvKind;
-use mmq_lab::output::run_into;
 use mmq_lab::{Control, RunConfig};
 use mmq_learn::spec::Params;
 use mmq_report::Progress as _;
@@ -59,9 +58,8 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     // Before anything is written: a bad address or a port in use stops here.
     let live =
         crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
-    let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
     let pb = Bars::new(a.quiet);
-    pb.begin(total, cfg.learner.kind().name());
+    pb.begin(cfg.total_steps(), cfg.learner.kind().name());
     let progress = |n: u64| pb.advance(n);
     let ctl = Control { stop, progress: &progress };
     let claimed = |replaced: usize| {
@@ -69,23 +67,14 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
             eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
         }
     };
-    let observers = mmq_lab::record::observers(&cfg, &a.out, live.as_ref());
-    let written = run_into(&a.out, &cfg, &world, &observers, ctl, &claimed);
-    drop(observers);
-    if let Some(l) = live {
-        l.stop();
-    }
+    let written = mmq_lab::record::run_recorded(&a.out, &cfg, &world, live, ctl, &claimed);
     pb.end();
     let written = written?;
     print!("{}", mmq_report::text::run_summary(&written.summary));
     // The summary says incomplete; the exit code and one message per lost file say why.
     written.check(&a.out)?;
     if written.interrupted {
-        eprintln!(
-            "interrupted: wrote the {} finished seed(s) to {}, marked partial",
-            written.summary.mean.get("steps").map_or(0, |m| m.n),
-            a.out.display()
-        );
+        eprintln!("{}", mmq_report::terminal::run_interrupted(&written, &a.out));
     } else {
         // A stop that came while the finished run's outputs were written changed nothing:
         // the summary says complete, so the exit code says success, not 130.

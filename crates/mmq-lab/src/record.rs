@@ -122,6 +122,25 @@ pub fn observers<'a>(
     }
 }
 
+/// A whole run into `out` ([`crate::output::run_into`]): every seed recorded when `cfg`
+/// records, the first one shown on `live` when given; the live server stops when the run
+/// ends, its last messages sent.
+pub fn run_recorded(
+    out: &Path,
+    cfg: &RunConfig,
+    world: &mmq_core::World,
+    live: Option<LiveRun>,
+    ctl: crate::runner::Control<'_>,
+    claimed: &dyn Fn(usize),
+) -> Result<crate::output::RunWritten, LabError> {
+    // The observers (the live tap among them) finish before the server stops.
+    let written = crate::output::run_into(out, cfg, world, &observers(cfg, out, live.as_ref()), ctl, claimed);
+    if let Some(l) = live {
+        l.stop();
+    }
+    written
+}
+
 /// Most decision steps `verify` re-runs (10⁹: minutes to hours of work). A `config.toml`
 /// attachment asking for more is refused before anything runs.
 pub const MAX_VERIFY_STEPS: u64 = 1_000_000_000;

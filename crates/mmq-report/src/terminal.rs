@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 
 use mmq_core::{World, optimum};
 use mmq_lab::LabError;
+use mmq_lab::output::RunWritten;
 use mmq_lab::record::Verdict;
 use mmq_lab::sweep::{MergeOutcome, Plan, Shard, SweepOutcome};
 use mmq_log::ReadStop;
@@ -125,6 +126,12 @@ pub fn sweep_reported(r: &SweepReport) -> String {
 /// `mmq learners`: one learner a line, name first, then what it is.
 pub fn learners() -> String {
     mmq_learn::catalogue().into_iter().map(|(_, name, desc)| format!("{name:<16} {desc}\n")).collect()
+}
+
+/// The line of a run the stop flag cut short: how many seeds finished, and where.
+pub fn run_interrupted(written: &RunWritten, out: &Path) -> String {
+    let seeds = written.summary.mean.get("steps").map_or(0, |m| m.n);
+    format!("interrupted: wrote the {seeds} finished seed(s) to {}, marked partial", out.display())
 }
 
 /// `mmq world list`: every shipped world with its size, optimum and description.
