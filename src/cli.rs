@@ -26,7 +26,8 @@ pub enum Command {
     /// and Q-tables into --out.
     Run(RunArgs),
     /// Check or show world files.
-    World(WorldArgs),
+    #[command(subcommand)]
+    World(WorldAction),
     /// List the learners, one a line, name first.
     Learners,
     /// Summarise, render or verify a recorded MCAP run.
@@ -182,13 +183,6 @@ pub struct RunArgs {
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
-}
-
-/// `mmq world`.
-#[derive(Debug, Args)]
-pub struct WorldArgs {
-    #[command(subcommand)]
-    pub action: WorldAction,
 }
 
 /// What to do with world files.

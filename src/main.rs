@@ -1,13 +1,6 @@
 //! `mmq`: the command-line interface. The only place that knows clap, anyhow and
-//! progress bars; it maps library errors to one-line messages and exit codes:
-//!
-//! | code | meaning |
-//! |---|---|
-//! | 0 | success |
-//! | 1 | runtime failure (I/O, physics) |
-//! | 2 | usage error (unknown flag, missing argument) |
-//! | 3 | bad input (world file, config, impossible parameter) |
-//! | 130 | interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial |
+//! progress bars; it maps library errors to one-line messages and exit codes ([`exit`];
+//! all of them, with examples, in docs/robustness.md).
 
 mod cli;
 mod live;
@@ -24,13 +17,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 
-/// Exit codes (see the module docs).
+/// Exit codes besides 0 (success) and 2 (usage error: unknown flag, missing argument; from
+/// clap).
 pub mod exit {
-    /// Runtime failure.
+    /// Runtime failure (I/O, physics).
     pub const RUNTIME: u8 = 1;
-    /// Bad input file or parameter.
+    /// Bad input (world file, config, impossible parameter).
     pub const INPUT: u8 = 3;
-    /// Interrupted; partial outputs written.
+    /// Interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial.
     pub const INTERRUPTED: u8 = 130;
 }
 

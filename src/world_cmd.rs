@@ -4,11 +4,11 @@ use mmq_core::World;
 use mmq_lab::runner::check_world;
 
 use crate::Failure;
-use crate::cli::{WorldAction, WorldArgs};
+use crate::cli::WorldAction;
 
 /// Runs `mmq world`.
-pub fn world(args: WorldArgs) -> Result<(), Failure> {
-    match args.action {
+pub fn world(action: WorldAction) -> Result<(), Failure> {
+    match action {
         WorldAction::List => {
             print!("{}", mmq_report::terminal::shipped_worlds()?);
             Ok(())
