@@ -39,15 +39,6 @@ impl Bars {
         self.current.read().unwrap_or_else(PoisonError::into_inner)
     }
 
-    /// Sets the current work's total (when it is known only after planning).
-    pub fn set_length(&self, total: u64) {
-        match self.current().as_ref() {
-            Some(Mode::Bar(pb)) => pb.set_length(total),
-            Some(Mode::Lines(p)) => p.set_length(total),
-            None => {}
-        }
-    }
-
     /// Runs `f` with the bar out of the way (for printing a line).
     pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
         match self.current().as_ref() {

@@ -43,13 +43,13 @@ pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
         return Ok(());
     }
     let clock = Instant::now();
+    // The bar begins once the plan says how many steps are left to run.
     let pb = Bars::new(a.quiet);
-    pb.begin(0, "sweep");
     let progress = |n: u64| pb.advance(n);
     let ctl = Control { stop, progress: &progress };
     let events = |e: &SweepEvent<'_>| match e {
         SweepEvent::Planned { jobs_total, jobs_here, done, baselines, steps } => {
-            pb.set_length(*steps);
+            pb.begin(*steps, "sweep");
             println!("{}", say::sweep_planned(plan, shard, *jobs_total, *jobs_here, *done, *baselines));
         }
         SweepEvent::JobDone { cell, cell_index, seed, finished, of, wall_s } if !a.quiet => {

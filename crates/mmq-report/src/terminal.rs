@@ -225,7 +225,7 @@ pub struct LineProgress {
     start: Instant,
     every: Duration,
     done: AtomicU64,
-    total: AtomicU64,
+    total: u64,
     last: Mutex<Instant>,
 }
 
@@ -238,7 +238,7 @@ impl LineProgress {
             start: now,
             every,
             done: AtomicU64::new(0),
-            total: AtomicU64::new(total),
+            total,
             last: Mutex::new(now),
         }
     }
@@ -251,22 +251,12 @@ impl LineProgress {
             return None;
         }
         *last = Instant::now();
-        Some(progress_line(
-            &self.label,
-            d,
-            self.total.load(Ordering::Relaxed),
-            self.start.elapsed().as_secs_f64(),
-        ))
-    }
-
-    /// Sets the total (when it is known only after planning).
-    pub fn set_length(&self, total: u64) {
-        self.total.store(total, Ordering::Relaxed);
+        Some(progress_line(&self.label, d, self.total, self.start.elapsed().as_secs_f64()))
     }
 
     /// The closing line: how much was done and how fast.
     pub fn finish(&self) -> String {
-        let (d, t) = (self.done.load(Ordering::Relaxed), self.total.load(Ordering::Relaxed));
+        let (d, t) = (self.done.load(Ordering::Relaxed), self.total);
         progress_done(&self.label, d, t, self.start.elapsed().as_secs_f64())
     }
 }
@@ -387,9 +377,8 @@ mod tests {
         assert_eq!(progress_line("x", 10, 0, 2.0), "x: 10 of 0 steps, 5 steps/s, 2 s elapsed");
         assert_eq!(progress_done("run", 600, 600, 120.0), "run: 600 of 600 steps in 2 min 00 s, 5 steps/s");
         // Lines come no more often than asked, and the last one counts everything.
-        let p = LineProgress::new("run", 100, Duration::from_secs(3600));
+        let p = LineProgress::new("run", 200, Duration::from_secs(3600));
         assert_eq!((p.inc(40), p.inc(60)), (None, None));
-        p.set_length(200);
         assert!(p.finish().starts_with("run: 100 of 200 steps in "), "{}", p.finish());
         let p = LineProgress::new("run", 100, Duration::ZERO);
         assert!(p.inc(40).is_some_and(|l| l.starts_with("run: 40 of 100 steps (40 %), ")));
