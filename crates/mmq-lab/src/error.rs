@@ -100,6 +100,15 @@ pub enum LabError {
         /// Why it could not start.
         reason: String,
     },
+    /// A recording that cannot be read, or an MCAP file that is not one.
+    #[error("{0}")]
+    Recording(mmq_log::LogError),
+    /// The temporary folder a verification re-runs in does not exist.
+    #[error(
+        "verify: the temporary folder {} does not exist; the re-run writes its log there: set TMPDIR to a writable folder",
+        .0.display()
+    )]
+    NoTempDir(PathBuf),
     /// Writing an output failed.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -141,6 +150,7 @@ impl LabError {
                 | LabError::OutDirInUse { .. }
                 | LabError::EnvBuild(_)
                 | LabError::Threads { .. }
+                | LabError::Recording(_)
         )
     }
 
