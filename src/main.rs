@@ -70,12 +70,8 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
             let text = mmq_report::terminal::one_line(f.error.chain().map(ToString::to_string));
-            let text = if mmq_report::terminal::names_fields(&*f.error) {
-                mmq_lab::fields::as_flags(&text)
-            } else {
-                text
-            };
-            eprintln!("error: {text}");
+            let named = mmq_report::terminal::names_fields(&*f.error);
+            eprintln!("error: {}", if named { mmq_lab::fields::as_flags(&text) } else { text });
             ExitCode::from(f.code)
         }
     }

@@ -56,8 +56,7 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
     let world = cfg.load_world()?;
     // Before anything is written: a bad address or a port in use stops here.
-    let live =
-        crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
+    let live = crate::live::start(&a, &cfg)?;
     let pb = Bars::new(a.quiet);
     pb.begin(cfg.total_steps(), cfg.learner.kind().name());
     let progress = |n: u64| pb.advance(n);
