@@ -38,14 +38,6 @@ impl Bars {
     fn current(&self) -> RwLockReadGuard<'_, Option<Mode>> {
         self.current.read().unwrap_or_else(PoisonError::into_inner)
     }
-
-    /// Runs `f` with the bar out of the way (for printing a line).
-    pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
-        match self.current().as_ref() {
-            Some(Mode::Bar(pb)) => pb.suspend(f),
-            _ => f(),
-        }
-    }
 }
 
 impl mmq_report::Progress for Bars {
@@ -90,9 +82,12 @@ impl mmq_report::Progress for Bars {
         }
     }
 
+    /// A line on stderr, with the bar out of the way; nothing when quiet.
     fn notice(&self, text: &str) {
-        if !self.quiet {
-            eprintln!("{text}");
+        match self.current().as_ref() {
+            _ if self.quiet => {}
+            Some(Mode::Bar(pb)) => pb.suspend(|| eprintln!("{text}")),
+            _ => eprintln!("{text}"),
         }
     }
 }

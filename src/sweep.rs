@@ -52,11 +52,10 @@ pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
             pb.begin(*steps, "sweep");
             println!("{}", say::sweep_planned(plan, shard, *jobs_total, *jobs_here, *done, *baselines));
         }
-        SweepEvent::JobDone { cell, cell_index, seed, finished, of, wall_s } if !a.quiet => {
+        SweepEvent::JobDone { cell, cell_index, seed, finished, of, wall_s } => {
             let axes = say::cell_axes(plan, *cell_index);
-            pb.suspend(|| eprintln!("[{finished}/{of}] cell {cell} ({axes}) seed {seed}: {wall_s:.2} s"));
+            pb.notice(&format!("[{finished}/{of}] cell {cell} ({axes}) seed {seed}: {wall_s:.2} s"));
         }
-        SweepEvent::JobDone { .. } => {}
     };
     let outcome = run_sweep(&spec, &out, shard, ctl, &events)?;
     pb.end();
