@@ -12,7 +12,6 @@ mod sweep;
 mod world_cmd;
 
 use std::process::ExitCode;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
@@ -45,6 +44,9 @@ impl<E: Into<anyhow::Error>> From<E> for Failure {
     }
 }
 
+/// Raised by Ctrl-C or SIGTERM: every loop stops at its next check.
+static STOP: AtomicBool = AtomicBool::new(false);
+
 /// Bad input: exit code 3.
 pub fn input_error(msg: impl std::fmt::Display) -> Failure {
     Failure { code: exit::INPUT, error: anyhow::anyhow!("{msg}") }
@@ -52,21 +54,17 @@ pub fn input_error(msg: impl std::fmt::Display) -> Failure {
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // SIGINT and SIGTERM (the `termination` feature): ask every loop to stop.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::SeqCst) {
-                // A second Ctrl-C ends at once.
-                std::process::exit(i32::from(exit::INTERRUPTED));
-            }
-        });
-    }
+    // SIGINT and SIGTERM (the `termination` feature): ask every loop to stop.
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            // A second Ctrl-C ends at once.
+            std::process::exit(i32::from(exit::INTERRUPTED));
+        }
+    });
     let threads = args.threads.map(mmq_lab::exec::set_threads).transpose();
-    let result = threads.map_err(Failure::from).and_then(|_| dispatch(args.command, &stop));
+    let result = threads.map_err(Failure::from).and_then(|_| dispatch(args.command, &STOP));
     match result {
-        Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
+        Ok(()) if STOP.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
             let text = mmq_report::terminal::one_line(f.error.chain().map(ToString::to_string));
