@@ -235,7 +235,7 @@ pub struct SweepArgs {
     /// The sweep spec (TOML).
     #[arg(required = true)]
     pub spec: Option<PathBuf>,
-    /// Output directory (results.csv, sweep.json, cells/); finished jobs there are skipped.
+    /// Output directory (results.csv, sweep.json, cells/); finished jobs there are skipped (resume).
     #[arg(long, short, required = true)]
     pub out: Option<PathBuf>,
     /// Run only the K-th of N disjoint parts of the jobs (1 <= K <= N), e.g. 2/8.
