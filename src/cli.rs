@@ -10,9 +10,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[derive(Debug, Parser)]
 #[command(name = "mmq", version, about, propagate_version = true)]
 pub struct Cli {
-    /// Worker threads for the seeds and jobs that `run`, `paper` and `sweep` run in
-    /// parallel (default: all cores; at most 256), given before the command:
-    /// `mmq --threads 2 sweep ...`. Results do not depend on it.
+    /// Worker threads for `run`, `paper` and `sweep` (default: all cores; at most 256),
+    /// given before the command: `mmq --threads 2 sweep ...`. Results do not depend on it.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     #[command(subcommand)]
@@ -26,15 +25,15 @@ pub enum Command {
     /// and Q-tables into --out.
     Run(RunArgs),
     /// Check or show world files.
-    World(WorldArgs),
+    #[command(subcommand)]
+    World(WorldAction),
     /// List the learners, one a line, name first.
     Learners,
     /// Summarise, render or verify a recorded MCAP run.
     Replay(ReplayArgs),
     /// Reproduce the paper's figures and write a report (report.md, SVG, PNG, CSV).
     Paper(PaperArgs),
-    /// Run a sweep spec (worlds × learners × delays × ... × seeds), resumable and
-    /// shardable; `mmq sweep report DIR`, `mmq sweep merge DIR... --out DIR`.
+    /// Run a sweep spec (parameters × seeds), resumable and shardable, or report or merge its outputs.
     Sweep(SweepArgs),
 }
 
@@ -52,9 +51,8 @@ pub enum EnvChoice {
 /// Flags of `mmq paper`.
 #[derive(Debug, Args)]
 pub struct PaperArgs {
-    /// Figures: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity), all, or comparison
-    /// (the learner comparison: every learner, two worlds, many delays; not part of all);
-    /// comma-separated.
+    /// Figures, comma-separated: 2, 3, 4, 6 (6–12 come together), sens (ε/q0 sensitivity),
+    /// all, or comparison (every learner, two worlds, many delays; not part of all).
     #[arg(long, default_value = "all")]
     pub fig: String,
     /// Fidelity for Figs. 6–12: grid, robot or both.
@@ -107,8 +105,7 @@ pub struct RunArgs {
     /// mix of those.
     #[arg(long, default_value = "poisson:13")]
     pub delay: String,
-    /// Width of deconv-model-time's time bins, seconds (default 0.1). Only for that
-    /// learner: another learner refuses it.
+    /// Width of deconv-model-time's time bins, seconds (default 0.1); for that learner only.
     #[arg(long)]
     pub time_bin: Option<f64>,
     /// λ̂max of the MMQ learners (N = λ̂max + 1 models), or the largest delay K the
@@ -184,13 +181,6 @@ pub struct RunArgs {
     pub quiet: bool,
 }
 
-/// `mmq world`.
-#[derive(Debug, Args)]
-pub struct WorldArgs {
-    #[command(subcommand)]
-    pub action: WorldAction,
-}
-
 /// What to do with world files.
 #[derive(Debug, Subcommand)]
 pub enum WorldAction {
@@ -217,8 +207,7 @@ pub struct ReplayArgs {
     /// Print the summary (the default when nothing else is asked).
     #[arg(long)]
     pub summary: bool,
-    /// Draw the arena and the trajectory, with a scale bar and a legend, to an SVG file
-    /// and a PNG next to it (same name, `.png`).
+    /// Draw the arena and the trajectory (scale bar, legend) to an SVG file and a PNG next to it.
     #[arg(long)]
     pub render: Option<PathBuf>,
     /// Re-run the simulation from the file's metadata and check it matches bit for bit.
@@ -230,9 +219,8 @@ pub struct ReplayArgs {
     /// Last decision step to draw.
     #[arg(long)]
     pub to: Option<u64>,
-    /// Play the file to the Foxglove app (WebSocket) on ADDR, with play, pause, seek and
-    /// speed from the app's timeline: HOST:PORT or a port; default 127.0.0.1:8765.
-    /// Runs until Ctrl-C.
+    /// Play the file to the Foxglove app (WebSocket) on ADDR (HOST:PORT or a port; default
+    /// 127.0.0.1:8765) until Ctrl-C; the app's timeline plays, pauses, seeks, sets the speed.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     pub serve: Option<String>,
 }
@@ -247,8 +235,7 @@ pub struct SweepArgs {
     /// The sweep spec (TOML).
     #[arg(required = true)]
     pub spec: Option<PathBuf>,
-    /// Output directory: results.csv, sweep.json, cells/<cell-id>/seed-<n>.json. Finished
-    /// jobs found there are skipped (resume).
+    /// Output directory (results.csv, sweep.json, cells/); finished jobs there are skipped (resume).
     #[arg(long, short, required = true)]
     pub out: Option<PathBuf>,
     /// Run only the K-th of N disjoint parts of the jobs (1 <= K <= N), e.g. 2/8.
@@ -265,12 +252,9 @@ pub struct SweepArgs {
 /// What `mmq sweep` does besides running.
 #[derive(Debug, Subcommand)]
 pub enum SweepAction {
-    /// Means and 95 % intervals per cell: summary.csv, report.md and a figure per numeric
-    /// swept axis, in DIR/report (or --out); with a learner axis, a table per learner and
-    /// setting with the change from the first setting; learning curves (spec `curve`) and
-    /// robot diagnostics, per cell heat maps included, when the sweep has them. Several
-    /// directories (e.g. a grid sweep with 20 seeds and a robot sweep with 5) are
-    /// reported together.
+    /// Means and 95 % intervals per cell, in DIR/report (or --out): summary.csv, report.md, a
+    /// figure per numeric axis, tables per learner, learning curves and robot diagnostics
+    /// when the sweep has them. Several directories (e.g. grid and robot) are reported together.
     Report {
         /// Sweep output directories (the first setting is the first directory's).
         #[arg(required = true)]

@@ -5,10 +5,12 @@ use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::RunConfig;
+use mmq_lab::config::RecordSettings;
 use mmq_lab::record::LiveRun;
 use mmq_log::LiveConfig;
 
 use crate::Failure;
+use crate::cli::RunArgs;
 
 /// The address flag as a live configuration; a bad address is bad input (exit 3).
 fn config(flag: &str, addr: &str, speed: f64, name: String) -> Result<LiveConfig, Failure> {
@@ -22,21 +24,12 @@ fn config(flag: &str, addr: &str, speed: f64, name: String) -> Result<LiveConfig
 }
 
 /// Starts the live view of `mmq run` when `--live` was given.
-pub fn start(
-    addr: Option<&str>,
-    speed: f64,
-    pose_rate_hz: f64,
-    cfg: &RunConfig,
-    out: &Path,
-) -> Result<Option<LiveRun>, Failure> {
-    let Some(addr) = addr else { return Ok(None) };
+pub fn start(a: &RunArgs, cfg: &RunConfig) -> Result<Option<LiveRun>, Failure> {
+    let Some(addr) = a.live.as_deref() else { return Ok(None) };
     let name = format!("mmq run: {} on {}", cfg.learner.kind().name(), cfg.world.display());
-    let live = LiveRun::start(&config("--live", addr, speed, name)?, cfg, out, pose_rate_hz)?;
-    eprintln!(
-        "live view: ws://{} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {}",
-        live.addr(),
-        cfg.seed
-    );
+    let pose_rate_hz = a.record_rate.unwrap_or(RecordSettings::default().pose_rate_hz);
+    let live = LiveRun::start(&config("--live", addr, a.live_speed, name)?, cfg, &a.out, pose_rate_hz)?;
+    eprintln!("{}", mmq_report::terminal::live_view(live.addr(), cfg.seed));
     Ok(Some(live))
 }
 
@@ -48,14 +41,9 @@ pub fn serve(file: &Path, addr: &str, stop: &AtomicBool) -> Result<(), Failure> 
         mmq_log::LogError::NotMcap { .. } => crate::input_error(e),
         _ => Failure::from(e),
     })?;
-    let (t0, t1) = server.time_range();
     eprintln!(
-        "serving {} ({} messages, {:.1} s of simulated time) on ws://{}: open it in the Foxglove app \
-         (Open connection → Foxglove WebSocket), press play; Ctrl-C stops",
-        file.display(),
-        server.messages(),
-        t1.saturating_sub(t0) as f64 * 1e-9,
-        server.addr()
+        "{}",
+        mmq_report::terminal::serving(file, server.messages(), server.time_range(), server.addr())
     );
     server.run(stop);
     Ok(())

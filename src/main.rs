@@ -1,13 +1,6 @@
 //! `mmq`: the command-line interface. The only place that knows clap, anyhow and
-//! progress bars; it maps library errors to one-line messages and exit codes:
-//!
-//! | code | meaning |
-//! |---|---|
-//! | 0 | success |
-//! | 1 | runtime failure (I/O, physics) |
-//! | 2 | usage error (unknown flag, missing argument) |
-//! | 3 | bad input (world file, config, impossible parameter) |
-//! | 130 | interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial |
+//! progress bars; it maps library errors to one-line messages and exit codes ([`exit`];
+//! all of them, with examples, in docs/robustness.md).
 
 mod cli;
 mod live;
@@ -19,18 +12,18 @@ mod sweep;
 mod world_cmd;
 
 use std::process::ExitCode;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use clap::Parser;
 
-/// Exit codes (see the module docs).
+/// Exit codes besides 0 (success) and 2 (usage error: unknown flag, missing argument; from
+/// clap).
 pub mod exit {
-    /// Runtime failure.
+    /// Runtime failure (I/O, physics).
     pub const RUNTIME: u8 = 1;
-    /// Bad input file or parameter.
+    /// Bad input (world file, config, impossible parameter).
     pub const INPUT: u8 = 3;
-    /// Interrupted; partial outputs written.
+    /// Interrupted (Ctrl-C / SIGTERM); finished outputs were written, marked partial.
     pub const INTERRUPTED: u8 = 130;
 }
 
@@ -46,18 +39,13 @@ pub struct Failure {
 impl<E: Into<anyhow::Error>> From<E> for Failure {
     fn from(e: E) -> Self {
         let error: anyhow::Error = e.into();
-        let code = match error.downcast_ref::<mmq_lab::LabError>() {
-            Some(l) if l.is_input_error() => exit::INPUT,
-            Some(_) => exit::RUNTIME,
-            None if error.downcast_ref::<mmq_core::WorldError>().is_some() => exit::INPUT,
-            None if error.downcast_ref::<mmq_report::ReportError>().is_some_and(|r| r.is_input_error()) => {
-                exit::INPUT
-            }
-            None => exit::RUNTIME,
-        };
+        let code = if mmq_report::terminal::is_input_error(&*error) { exit::INPUT } else { exit::RUNTIME };
         Failure { code, error }
     }
 }
+
+/// Raised by Ctrl-C or SIGTERM: every loop stops at its next check.
+static STOP: AtomicBool = AtomicBool::new(false);
 
 /// Bad input: exit code 3.
 pub fn input_error(msg: impl std::fmt::Display) -> Failure {
@@ -66,49 +54,25 @@ pub fn input_error(msg: impl std::fmt::Display) -> Failure {
 
 fn main() -> ExitCode {
     let args = cli::Cli::parse();
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // SIGINT and SIGTERM (the `termination` feature): ask every loop to stop.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::SeqCst) {
-                // A second Ctrl-C ends at once.
-                std::process::exit(i32::from(exit::INTERRUPTED));
-            }
-        });
-    }
-    let result = match args.threads.map(set_threads).transpose() {
-        Err(f) => Err(f),
-        Ok(_) => dispatch(args.command, &stop),
-    };
+    // SIGINT and SIGTERM (the `termination` feature): ask every loop to stop.
+    let _ = ctrlc::set_handler(|| {
+        if STOP.swap(true, Ordering::SeqCst) {
+            // A second Ctrl-C ends at once.
+            std::process::exit(i32::from(exit::INTERRUPTED));
+        }
+    });
+    let threads = args.threads.map(mmq_lab::exec::set_threads).transpose();
+    let result = threads.map_err(Failure::from).and_then(|_| dispatch(args.command, &STOP));
     match result {
-        Ok(()) if stop.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
+        Ok(()) if STOP.load(Ordering::SeqCst) => ExitCode::from(exit::INTERRUPTED),
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
             let text = mmq_report::terminal::one_line(f.error.chain().map(ToString::to_string));
-            let text = if names_fields(&f.error) { mmq_lab::fields::as_flags(&text) } else { text };
-            eprintln!("error: {text}");
+            let named = mmq_report::terminal::names_fields(&*f.error);
+            eprintln!("error: {}", if named { mmq_lab::fields::as_flags(&text) } else { text });
             ExitCode::from(f.code)
         }
     }
-}
-
-/// The largest `--threads` accepted: far more than any machine this runs on needs for
-/// seeds in parallel, and few enough that starting them cannot exhaust the process.
-const MAX_THREADS: usize = 256;
-
-/// Starts the worker pool with `n` threads: a bad count is bad input, a pool that cannot
-/// start (a memory or process limit) a runtime failure; neither panics.
-fn set_threads(n: usize) -> Result<(), Failure> {
-    if !(1..=MAX_THREADS).contains(&n) {
-        return Err(input_error(format!(
-            "--threads {n}: use a number of worker threads from 1 to {MAX_THREADS} (default: one per core)"
-        )));
-    }
-    rayon::ThreadPoolBuilder::new().num_threads(n).build_global().map_err(|e| Failure {
-        code: exit::RUNTIME,
-        error: anyhow::anyhow!("cannot start {n} worker threads ({e}); give fewer with --threads"),
-    })
 }
 
 fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
@@ -119,21 +83,8 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
         cli::Command::Sweep(a) => sweep::sweep(a, stop),
         cli::Command::Replay(a) => replay::replay(a, stop),
         cli::Command::Learners => {
-            for (_, name, desc) in mmq_learn::catalogue() {
-                println!("{name:<16} {desc}");
-            }
+            print!("{}", mmq_report::terminal::learners());
             Ok(())
         }
     }
-}
-
-/// Whether the error is a library's complaint about run-configuration fields (which it
-/// names in backticks, and the command line shows as the flags that set them).
-fn names_fields(e: &anyhow::Error) -> bool {
-    let learn = |l: &mmq_learn::LearnError| mmq_lab::LabError::Learner(l.clone()).names_fields();
-    e.downcast_ref::<mmq_lab::LabError>()
-        .map(mmq_lab::LabError::names_fields)
-        .or(e.downcast_ref::<mmq_report::ReportError>().map(mmq_report::ReportError::names_fields))
-        .or(e.downcast_ref::<mmq_learn::LearnError>().map(learn))
-        .unwrap_or(false)
 }

@@ -4,7 +4,6 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_lab::config::EnvKind;
-use mmq_report::ReportError;
 use mmq_report::paper::PaperRequest;
 
 use crate::cli::{EnvChoice, PaperArgs};
@@ -27,10 +26,7 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
         out: a.out,
         specs: None,
     };
-    let done = mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet)).map_err(|e| match e {
-        ReportError::UnknownFigure(_) => crate::input_error(format!("--fig {e}")),
-        e => Failure::from(e),
-    })?;
+    let done = mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet))?;
     println!("wrote {} ({} files) in {:.1} s", done.report.display(), done.files, done.wall_s);
     if stop.load(Ordering::SeqCst) {
         eprintln!("interrupted: the report covers what finished");

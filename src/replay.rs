@@ -3,7 +3,7 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use mmq_lab::record::{Verdict, verify};
+use mmq_lab::record::{Verdict, read_recording, verify_in_temp_dir};
 
 use crate::Failure;
 use crate::cli::ReplayArgs;
@@ -16,26 +16,11 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
         stop.store(false, Ordering::SeqCst);
         return Ok(());
     }
-    let log = mmq_log::read_log(&a.file).map_err(crate::input_error)?;
-    if !log.metadata.contains_key("run") && !log.topics.contains_key(mmq_log::messages::topics::DECISION) {
-        return Err(crate::input_error(format!(
-            "{}: an MCAP file, but not a recording of this program (no `run` metadata, no {} topic); \
-             `mmq replay` reads the files of `mmq run --record`",
-            a.file.display(),
-            mmq_log::messages::topics::DECISION
-        )));
-    }
+    let log = read_recording(&a.file)?;
     let summary = a.summary || (a.render.is_none() && !a.verify);
     // The summary says where reading stopped; otherwise one warning says it.
     if let Some(stop) = log.stop.as_ref().filter(|_| !summary) {
-        eprintln!(
-            "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",
-            a.file.display(),
-            stop.offset,
-            stop.file_len,
-            stop.reason,
-            stop.messages
-        );
+        eprintln!("{}", mmq_report::terminal::read_stopped(&a.file, stop));
     }
     if summary {
         print!("{}", mmq_log::summary(&log));
@@ -62,18 +47,7 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
         println!("wrote {} and {}", svg.display(), png.display());
     }
     if a.verify {
-        let scratch = std::env::temp_dir();
-        if !scratch.is_dir() {
-            return Err(Failure {
-                code: crate::exit::RUNTIME,
-                error: anyhow::anyhow!(
-                    "verify: the temporary folder {} does not exist; the re-run writes its log there: \
-                     set TMPDIR to a writable folder",
-                    scratch.display()
-                ),
-            });
-        }
-        let v = verify(&log, &scratch, stop)?;
+        let v = verify_in_temp_dir(&log, stop)?;
         match mmq_report::terminal::verdict(&v) {
             // Exit 130 (the stop flag is up): nothing concluded.
             (text, _) if matches!(v, Verdict::Interrupted { .. }) => eprintln!("{text}"),

@@ -5,29 +5,25 @@
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::EnvKind;
-use mmq_lab::output::run_into;
 use mmq_lab::{Control, RunConfig};
-use mmq_learn::{LearnerKind, LearnerSpec, spec::Params};
+use mmq_learn::spec::Params;
+use mmq_report::Progress as _;
 
+use crate::Failure;
 use crate::cli::{EnvArg, RunArgs};
-use crate::{Failure, progress};
+use crate::progress::Bars;
 
 /// Stage two of the flags: a validated configuration.
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
-    let kind = LearnerKind::parse(&a.learner).map_err(|e| crate::input_error(format!("--learner: {e}")))?;
     // Only the settings given are set; one the learner does not have is an error.
+    let int = |x: usize| toml::Value::Integer(x.min(i64::MAX as usize) as i64);
     let given = [
-        ("max_delay", a.max_delay.map(|x| toml::Value::Integer(x.min(i64::MAX as usize) as i64))),
-        ("lambda_hat", a.lambda_hat.map(|x| toml::Value::Integer(x.min(i64::MAX as usize) as i64))),
+        ("max_delay", a.max_delay.map(int)),
+        ("lambda_hat", a.lambda_hat.map(int)),
         ("time_bin_s", a.time_bin.map(toml::Value::Float)),
     ];
-    let pairs: Vec<(&str, &toml::Value)> =
-        given.iter().filter_map(|(k, v)| v.as_ref().map(|v| (*k, v))).collect();
-    let base = LearnerSpec {
-        params: Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 },
-        ..LearnerSpec::new(kind)
-    };
-    let learner = mmq_lab::settings::with_settings(&base, &pairs)?;
+    let params = Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 };
+    let learner = mmq_lab::settings::learner(&a.learner, params, &given)?;
     let cfg = RunConfig {
         world: a.world.clone(),
         env: match a.env {
@@ -60,34 +56,24 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
     let world = cfg.load_world()?;
     // Before anything is written: a bad address or a port in use stops here.
-    let live =
-        crate::live::start(a.live.as_deref(), a.live_speed, a.record_rate.unwrap_or(10.0), &cfg, &a.out)?;
-    let total = cfg.steps * cfg.seeds * if cfg.baseline { 2 } else { 1 };
-    let pb = progress::bar(total, cfg.learner.kind().name(), a.quiet);
-    let progress = |n: u64| pb.inc(n);
+    let live = crate::live::start(&a, &cfg)?;
+    let pb = Bars::new(a.quiet);
+    pb.begin(cfg.total_steps(), cfg.learner.kind().name());
+    let progress = |n: u64| pb.advance(n);
     let ctl = Control { stop, progress: &progress };
     let claimed = |replaced: usize| {
         if replaced > 0 && !a.quiet {
             eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
         }
     };
-    let observers = mmq_lab::record::observers(&cfg, &a.out, live.as_ref());
-    let written = run_into(&a.out, &cfg, &world, &observers, ctl, &claimed);
-    drop(observers);
-    if let Some(l) = live {
-        l.stop();
-    }
-    pb.finish_and_clear();
+    let written = mmq_lab::record::run_recorded(&a.out, &cfg, &world, live, ctl, &claimed);
+    pb.end();
     let written = written?;
     print!("{}", mmq_report::text::run_summary(&written.summary));
     // The summary says incomplete; the exit code and one message per lost file say why.
     written.check(&a.out)?;
     if written.interrupted {
-        eprintln!(
-            "interrupted: wrote the {} finished seed(s) to {}, marked partial",
-            written.summary.mean.get("steps").map_or(0, |m| m.n),
-            a.out.display()
-        );
+        eprintln!("{}", mmq_report::terminal::run_interrupted(&written, &a.out));
     } else {
         // A stop that came while the finished run's outputs were written changed nothing:
         // the summary says complete, so the exit code says success, not 130.

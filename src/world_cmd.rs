@@ -1,14 +1,14 @@
 //! `mmq world list|check|show`.
 
 use mmq_core::World;
-use mmq_lab::runner::robot_env;
+use mmq_lab::runner::check_world;
 
 use crate::Failure;
-use crate::cli::{WorldAction, WorldArgs};
+use crate::cli::WorldAction;
 
 /// Runs `mmq world`.
-pub fn world(args: WorldArgs) -> Result<(), Failure> {
-    match args.action {
+pub fn world(action: WorldAction) -> Result<(), Failure> {
+    match action {
         WorldAction::List => {
             print!("{}", mmq_report::terminal::shipped_worlds()?);
             Ok(())
@@ -17,15 +17,7 @@ pub fn world(args: WorldArgs) -> Result<(), Failure> {
             let mut bad = 0;
             let total = files.len();
             for f in files {
-                // A `[robot]` table is checked too (against the world's cell size): the
-                // robot environment would refuse it at the start of `mmq run --env robot`.
-                let checked = World::load(&f).map_err(|e| e.to_string()).and_then(|w| {
-                    if w.robot.is_some() {
-                        robot_env(&w).map_err(|e| e.to_string())?;
-                    }
-                    Ok(w)
-                });
-                match checked {
+                match check_world(&f) {
                     Ok(w) => println!("{}", mmq_report::terminal::world_ok(&f, &w)),
                     Err(e) => {
                         eprintln!("error: {e}");

@@ -193,6 +193,12 @@ impl RunConfig {
         toml::Value::Table(table).try_into().map_err(|e: toml::de::Error| cannot(e.message().trim().into()))
     }
 
+    /// Decision steps the run makes in all, every seed's and their baselines' (the length
+    /// of its progress).
+    pub fn total_steps(&self) -> u64 {
+        self.steps * self.seeds * if self.baseline { 2 } else { 1 }
+    }
+
     /// The master seeds of this run.
     pub fn seed_list(&self) -> Vec<u64> {
         (0..self.seeds).map(|i| self.seed.saturating_add(i)).collect()

@@ -84,6 +84,31 @@ pub enum LabError {
         /// One message per seed that lost output.
         lost: Vec<String>,
     },
+    /// A number of worker threads out of range.
+    #[error("`threads` {n}: use a number of worker threads from 1 to {max} (default: one per core)")]
+    Threads {
+        /// The number given.
+        n: usize,
+        /// The most accepted.
+        max: usize,
+    },
+    /// The worker pool could not start (a memory or process limit).
+    #[error("cannot start {n} worker threads ({reason}); give fewer with `threads`")]
+    Pool {
+        /// The number asked for.
+        n: usize,
+        /// Why it could not start.
+        reason: String,
+    },
+    /// A recording that cannot be read, or an MCAP file that is not one.
+    #[error("{0}")]
+    Recording(mmq_log::LogError),
+    /// The temporary folder a verification re-runs in does not exist.
+    #[error(
+        "verify: the temporary folder {} does not exist; the re-run writes its log there: set TMPDIR to a writable folder",
+        .0.display()
+    )]
+    NoTempDir(PathBuf),
     /// Writing an output failed.
     #[error("cannot write {path}: {source}")]
     Io {
@@ -105,6 +130,8 @@ impl LabError {
                 | LabError::Setting { .. }
                 | LabError::EnvBuild(_)
                 | LabError::OutDirInUse { .. }
+                | LabError::Threads { .. }
+                | LabError::Pool { .. }
                 | LabError::Learner(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. })
         )
     }
@@ -122,6 +149,8 @@ impl LabError {
                 | LabError::Spec { .. }
                 | LabError::OutDirInUse { .. }
                 | LabError::EnvBuild(_)
+                | LabError::Threads { .. }
+                | LabError::Recording(_)
         )
     }
 

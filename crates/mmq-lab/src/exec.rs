@@ -96,6 +96,22 @@ enum Slot {
     Gone,
 }
 
+/// The most worker threads [`set_threads`] accepts: far more than any machine this runs on
+/// needs for seeds in parallel, and few enough that starting them cannot exhaust the
+/// process.
+pub const MAX_THREADS: usize = 256;
+
+/// Starts the worker pool (rayon's global pool, before any job runs) with `n` threads: a
+/// bad count is bad input, a pool that cannot start (a memory or process limit) a runtime
+/// failure; neither panics.
+pub fn set_threads(n: usize) -> Result<(), LabError> {
+    if !(1..=MAX_THREADS).contains(&n) {
+        return Err(LabError::Threads { n, max: MAX_THREADS });
+    }
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(n).build_global();
+    pool.map_err(|e| LabError::Pool { n, reason: e.to_string() })
+}
+
 /// Runs `jobs` in parallel and hands each run to `done` with its index, its baseline
 /// attached where the configuration asks for one. As one seed of `mmq run` does: the run
 /// first, then (if it finished) its baseline; a run cut short by the stop flag, or whose
@@ -227,6 +243,20 @@ pub fn run_jobs_in_order(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_thread_count_out_of_range_is_bad_input_naming_the_field() {
+        for n in [0, MAX_THREADS + 1] {
+            let e = set_threads(n).unwrap_err();
+            assert!(e.is_input_error() && e.names_fields(), "{e}");
+            assert_eq!(
+                e.to_string(),
+                format!(
+                    "`threads` {n}: use a number of worker threads from 1 to 256 (default: one per core)"
+                )
+            );
+        }
+    }
 
     fn cfg() -> RunConfig {
         RunConfig { world: "paper-3x3".into(), steps: 300, window: 100, ..RunConfig::default() }

@@ -1,5 +1,5 @@
 //! Run-configuration fields as errors name them, in backticks ("`max_delay` = 70000 is
-//! not accepted; …"), and the `mmq run` flag of each. Library errors speak the
+//! not accepted; …"), and the command-line flag of each. Library errors speak the
 //! configuration; a front end that speaks flags (the command line) rewrites them with
 //! [`as_flags`], one that takes the fields by name (Python's keyword arguments) with
 //! [`as_names`].
@@ -14,6 +14,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("record.pose_rate_hz", "--record-rate"),
     ("robot", "--robot"),
     ("delay", "--delay"),
+    ("learner", "--learner"),
     ("alpha", "--alpha"),
     ("gamma", "--gamma"),
     ("epsilon", "--epsilon"),
@@ -24,6 +25,8 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("shard", "--shard"),
     ("save_tables = false", "--no-tables"),
     ("out", "--out"),
+    ("fig", "--fig"),
+    ("threads", "--threads"),
 ];
 
 fn rewrite(text: &str, to: impl Fn(&str, &str) -> String) -> String {

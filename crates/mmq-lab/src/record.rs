@@ -122,6 +122,52 @@ pub fn observers<'a>(
     }
 }
 
+/// A whole run into `out` ([`crate::output::run_into`]): every seed recorded when `cfg`
+/// records, the first one shown on `live` when given; the live server stops when the run
+/// ends, its last messages sent.
+pub fn run_recorded(
+    out: &Path,
+    cfg: &RunConfig,
+    world: &mmq_core::World,
+    live: Option<LiveRun>,
+    ctl: crate::runner::Control<'_>,
+    claimed: &dyn Fn(usize),
+) -> Result<crate::output::RunWritten, LabError> {
+    // The observers (the live tap among them) finish before the server stops.
+    let written = crate::output::run_into(out, cfg, world, &observers(cfg, out, live.as_ref()), ctl, claimed);
+    if let Some(l) = live {
+        l.stop();
+    }
+    written
+}
+
+/// Reads a recording of `mmq run --record`, as far as it can be read (see
+/// `LogContents::stop`). A file that cannot be read, or an MCAP file that is not such a
+/// recording, is bad input.
+pub fn read_recording(path: &Path) -> Result<mmq_log::LogContents, LabError> {
+    let log = mmq_log::read_log(path).map_err(LabError::Recording)?;
+    let decision = mmq_log::messages::topics::DECISION;
+    if !log.metadata.contains_key("run") && !log.topics.contains_key(decision) {
+        return Err(LabError::Config {
+            file: path.display().to_string(),
+            message: format!(
+                "an MCAP file, but not a recording of this program (no `run` metadata, no {decision} \
+                 topic); `mmq replay` reads the files of `mmq run --record`"
+            ),
+        });
+    }
+    Ok(log)
+}
+
+/// [`verify`] with the re-run's log in the temporary folder (`TMPDIR`).
+pub fn verify_in_temp_dir(log: &mmq_log::LogContents, stop: &AtomicBool) -> Result<Verdict, LabError> {
+    let scratch = std::env::temp_dir();
+    if !scratch.is_dir() {
+        return Err(LabError::NoTempDir(scratch));
+    }
+    verify(log, &scratch, stop)
+}
+
 /// Most decision steps `verify` re-runs (10⁹: minutes to hours of work). A `config.toml`
 /// attachment asking for more is refused before anything runs.
 pub const MAX_VERIFY_STEPS: u64 = 1_000_000_000;

@@ -172,6 +172,16 @@ pub fn robot_env(world: &World) -> Result<RobotEnv, LabError> {
     RobotEnv::new(world, robot_config(world)?).map_err(|e| env_build(world, e))
 }
 
+/// Loads the world file at `path` and checks it as a run would: a `[robot]` table too,
+/// against the world's cell size (a robot run would refuse it at its start).
+pub fn check_world(path: &std::path::Path) -> Result<World, LabError> {
+    let world = World::load(path)?;
+    if world.robot.is_some() {
+        robot_env(&world)?;
+    }
+    Ok(world)
+}
+
 /// The robot's configuration from `world`'s `[robot]` table; errors name the world file.
 fn robot_config(world: &World) -> Result<RobotConfig, LabError> {
     RobotConfig::from_world(world).map_err(|e| env_build(world, e))

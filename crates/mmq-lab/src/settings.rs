@@ -3,6 +3,7 @@
 //! a setting the chosen learner does not have is refused with its name, the learner's
 //! own settings and the fix, never ignored.
 
+use mmq_learn::spec::Params;
 use mmq_learn::{LearnerKind, LearnerSpec};
 
 use crate::error::LabError;
@@ -88,6 +89,21 @@ pub fn with_settings(spec: &LearnerSpec, pairs: &[(&str, &toml::Value)]) -> Resu
     })?;
     out.validate()?;
     Ok(out)
+}
+
+/// Learner `name` with the shared parameters `params` and the settings given (`None`:
+/// the learner's default), checked as [`with_settings`] checks them; an unknown name is an
+/// error naming `learner`.
+pub fn learner(
+    name: &str,
+    params: Params,
+    given: &[(&str, Option<toml::Value>)],
+) -> Result<LearnerSpec, LabError> {
+    let kind = LearnerKind::parse(name)
+        .map_err(|e| LabError::Setting { field: "learner".into(), message: e.to_string() })?;
+    let pairs: Vec<(&str, &toml::Value)> =
+        given.iter().filter_map(|(k, v)| v.as_ref().map(|v| (*k, v))).collect();
+    with_settings(&LearnerSpec { params, ..LearnerSpec::new(kind) }, &pairs)
 }
 
 /// The learner's own settings from a `[learner]` table in the flat layout that older
@@ -199,5 +215,16 @@ mod tests {
         let s = with_settings(&d, &[("told_delay", &v("poisson:13"))]).unwrap();
         assert_eq!(s.settings.deconv().unwrap().told_delay.as_deref(), Some("poisson:13"));
         assert!(with_settings(&q, &[("told_delay", &v("poisson:13"))]).is_err());
+    }
+
+    #[test]
+    fn a_learner_by_name_takes_its_parameters_and_the_settings_given() {
+        let params = Params { alpha: 0.5, ..Params::default() };
+        let s = learner("mmq", params, &[("max_delay", Some(v(7))), ("lambda_hat", None)]).unwrap();
+        assert_eq!((s.kind(), s.params.alpha, s.settings.max_delay()), (LearnerKind::Mmq, 0.5, Some(7)));
+        let e = learner("sarsa", params, &[]).unwrap_err().to_string();
+        assert!(e.starts_with("`learner`: unknown learner `sarsa`"), "{e}");
+        let e = learner("q", params, &[("max_delay", Some(v(4)))]).unwrap_err().to_string();
+        assert!(e.starts_with("`max_delay`: learner `q` has no such setting"), "{e}");
     }
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::{EnvKind, RecordSettings};
-use mmq_lab::record::{Verdict, recorder_factory, trajectory_path, verify};
+use mmq_lab::record::{Verdict, read_recording, recorder_factory, trajectory_path, verify};
 use mmq_lab::{Control, RunConfig, run_all};
 
 fn world() -> PathBuf {
@@ -81,6 +81,19 @@ fn recorded_grid(dir: &std::path::Path, steps: u64) -> (PathBuf, mmq_log::LogCon
     let log = mmq_log::read_log(&path).unwrap();
     assert!(log.complete);
     (path, log)
+}
+
+/// A recording reads back as one; a file that is not MCAP is bad input naming the file
+/// (an MCAP file of another program: `tests/cli.rs`).
+#[test]
+fn recordings_read_back_and_other_files_are_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let (path, log) = recorded_grid(dir.path(), 50);
+    assert_eq!(read_recording(&path).unwrap().decisions.len(), log.decisions.len());
+    let text = dir.path().join("notes.mcap");
+    std::fs::write(&text, "not an MCAP file").unwrap();
+    let e = read_recording(&text).unwrap_err();
+    assert!(e.is_input_error() && e.to_string().contains("notes.mcap"), "{e}");
 }
 
 /// A file cut short (an interrupted write: the MCAP holds a prefix) verifies as far as it

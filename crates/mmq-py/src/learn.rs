@@ -274,8 +274,7 @@ pub fn run_json(
         let progress = |_: u64| {};
         let ctl = Control { stop: &stop, progress: &progress };
         if let Some(dir) = &out {
-            let recorders = mmq_lab::record::recorder_factory(&cfg, dir);
-            let written = mmq_lab::output::run_into(dir, &cfg, &w, &recorders, ctl, &|_| {})?;
+            let written = mmq_lab::record::run_recorded(dir, &cfg, &w, None, ctl, &|_| {})?;
             // A seed that lost a file is an error, never a complete run.
             written.check(dir)?;
             Ok(serde_json::to_string(&written.summary).unwrap_or_default())

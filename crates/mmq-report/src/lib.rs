@@ -30,9 +30,9 @@ pub enum ReportError {
     /// A figure could not be drawn or written.
     #[error(transparent)]
     Plot(#[from] PlotError),
-    /// A figure name that is not one of the paper's.
+    /// A figure name that is not one of the paper's (the field `fig` of the request).
     #[error(
-        "`{0}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, comparison or all (comma-separated)"
+        "`fig` `{0}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, comparison or all (comma-separated)"
     )]
     UnknownFigure(String),
     /// A report was asked of no sweep directory.
@@ -53,7 +53,11 @@ impl ReportError {
 
     /// Whether the message names run-configuration fields (see [`LabError::names_fields`]).
     pub fn names_fields(&self) -> bool {
-        matches!(self, ReportError::Lab(e) if e.names_fields())
+        match self {
+            ReportError::Lab(e) => e.names_fields(),
+            ReportError::UnknownFigure(_) => true,
+            ReportError::Plot(_) | ReportError::NoSweep => false,
+        }
     }
 }
 

@@ -1,17 +1,24 @@
 //! What the commands say on a terminal besides their reports: a sweep's plan and
-//! progress lines, what a merge and a sweep report wrote, the shipped worlds, a world
-//! file's check, a replay's verdict, and progress lines for batch logs. Plain functions
+//! progress lines, what a merge and a sweep report wrote, the learners, the shipped
+//! worlds, a world file's check, a live view's and a replay's lines, and progress lines
+//! for batch logs. Plain functions
 //! from results to text, so that the command line only prints them.
 
 use std::fmt::Write as _;
+use std::net::SocketAddr;
+use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use mmq_core::{World, optimum};
+use mmq_lab::LabError;
+use mmq_lab::output::RunWritten;
 use mmq_lab::record::Verdict;
 use mmq_lab::sweep::{MergeOutcome, Plan, Shard, SweepOutcome};
+use mmq_log::ReadStop;
 
+use crate::ReportError;
 use crate::sweep::SweepReport;
 
 /// `mmq sweep --dry-run`: the cells and jobs, the fixed fields, every axis and the seeds.
@@ -109,6 +116,17 @@ pub fn sweep_reported(r: &SweepReport) -> String {
     )
 }
 
+/// `mmq learners`: one learner a line, name first, then what it is.
+pub fn learners() -> String {
+    mmq_learn::catalogue().into_iter().map(|(_, name, desc)| format!("{name:<16} {desc}\n")).collect()
+}
+
+/// The line of a run the stop flag cut short: how many seeds finished, and where.
+pub fn run_interrupted(written: &RunWritten, out: &Path) -> String {
+    let seeds = written.summary.mean.get("steps").map_or(0, |m| m.n);
+    format!("interrupted: wrote the {seeds} finished seed(s) to {}, marked partial", out.display())
+}
+
 /// `mmq world list`: every shipped world with its size, optimum and description.
 pub fn shipped_worlds() -> Result<String, mmq_core::WorldError> {
     let mut t = String::from("shipped worlds (use the name as --world, or copy the file to change it):\n");
@@ -127,7 +145,7 @@ pub fn shipped_worlds() -> Result<String, mmq_core::WorldError> {
 }
 
 /// `mmq world check`: the line of a valid world file.
-pub fn world_ok(file: &std::path::Path, w: &World) -> String {
+pub fn world_ok(file: &Path, w: &World) -> String {
     format!(
         "ok  {}: {} {}×{}, {} free cells, optimum {:.4} reward/step",
         file.display(),
@@ -163,6 +181,35 @@ pub fn verdict(v: &Verdict) -> (String, bool) {
     }
 }
 
+/// The line of `mmq run --live`: where the live view is served and which seed it shows.
+pub fn live_view(addr: SocketAddr, seed: u64) -> String {
+    format!(
+        "live view: ws://{addr} (Foxglove app: Open connection → Foxglove WebSocket); showing seed {seed}"
+    )
+}
+
+/// The line of `mmq replay --serve`: what is served where, and how to watch it.
+pub fn serving(file: &Path, messages: usize, (t0, t1): (u64, u64), addr: SocketAddr) -> String {
+    format!(
+        "serving {} ({messages} messages, {:.1} s of simulated time) on ws://{addr}: open it in the \
+         Foxglove app (Open connection → Foxglove WebSocket), press play; Ctrl-C stops",
+        file.display(),
+        t1.saturating_sub(t0) as f64 * 1e-9,
+    )
+}
+
+/// The warning for a recording whose reading stopped early.
+pub fn read_stopped(file: &Path, stop: &ReadStop) -> String {
+    format!(
+        "warning: {}: read stopped at byte {} of {} ({}); recovered {} messages",
+        file.display(),
+        stop.offset,
+        stop.file_len,
+        stop.reason,
+        stop.messages
+    )
+}
+
 /// Progress for a batch log (stderr a file or a pipe): a line at most every `every`,
 /// with steps done of the total, the rate and the time left; shared between threads.
 #[derive(Debug)]
@@ -171,7 +218,7 @@ pub struct LineProgress {
     start: Instant,
     every: Duration,
     done: AtomicU64,
-    total: AtomicU64,
+    total: u64,
     last: Mutex<Instant>,
 }
 
@@ -184,7 +231,7 @@ impl LineProgress {
             start: now,
             every,
             done: AtomicU64::new(0),
-            total: AtomicU64::new(total),
+            total,
             last: Mutex::new(now),
         }
     }
@@ -197,22 +244,12 @@ impl LineProgress {
             return None;
         }
         *last = Instant::now();
-        Some(progress_line(
-            &self.label,
-            d,
-            self.total.load(Ordering::Relaxed),
-            self.start.elapsed().as_secs_f64(),
-        ))
-    }
-
-    /// Sets the total (when it is known only after planning).
-    pub fn set_length(&self, total: u64) {
-        self.total.store(total, Ordering::Relaxed);
+        Some(progress_line(&self.label, d, self.total, self.start.elapsed().as_secs_f64()))
     }
 
     /// The closing line: how much was done and how fast.
     pub fn finish(&self) -> String {
-        let (d, t) = (self.done.load(Ordering::Relaxed), self.total.load(Ordering::Relaxed));
+        let (d, t) = (self.done.load(Ordering::Relaxed), self.total);
         progress_done(&self.label, d, t, self.start.elapsed().as_secs_f64())
     }
 }
@@ -254,6 +291,29 @@ pub fn one_line(causes: impl IntoIterator<Item = String>) -> String {
     text.chars().flat_map(|c| if c.is_control() { c.escape_debug().collect() } else { vec![c] }).collect()
 }
 
+/// Whether an error of mmq's libraries is bad input (a world file, a configuration, an
+/// impossible parameter) rather than a failure while running or writing: a front end's
+/// exit code.
+pub fn is_input_error(e: &(dyn std::error::Error + 'static)) -> bool {
+    match (e.downcast_ref::<LabError>(), e.downcast_ref::<ReportError>()) {
+        (Some(l), _) => l.is_input_error(),
+        (_, Some(r)) => r.is_input_error(),
+        _ => e.is::<mmq_core::WorldError>(),
+    }
+}
+
+/// Whether an error of mmq's libraries names run-configuration fields in backticks, which
+/// a front end shows as its own names for them (`mmq_lab::fields`).
+pub fn names_fields(e: &(dyn std::error::Error + 'static)) -> bool {
+    if let Some(l) = e.downcast_ref::<mmq_learn::LearnError>() {
+        return LabError::Learner(l.clone()).names_fields();
+    }
+    e.downcast_ref::<LabError>()
+        .map(LabError::names_fields)
+        .or(e.downcast_ref::<ReportError>().map(ReportError::names_fields))
+        .unwrap_or(false)
+}
+
 /// A duration as "1 h 02 min", "3 min 05 s" or "42 s".
 pub fn duration(secs: f64) -> String {
     let s = secs.round() as u64;
@@ -275,6 +335,25 @@ mod tests {
     }
 
     #[test]
+    fn errors_are_told_apart_by_kind() {
+        let param = LabError::param("alpha", 2, "use a rate in [0, 1]");
+        let io = LabError::Io { path: "a.csv".into(), source: std::io::Error::other("disk full") };
+        assert!(is_input_error(&param) && names_fields(&param));
+        assert!(!is_input_error(&io) && !names_fields(&io));
+        let figure = ReportError::UnknownFigure("5".into());
+        assert!(is_input_error(&figure) && names_fields(&figure));
+        assert!(is_input_error(&ReportError::Lab(param)) && !is_input_error(&ReportError::Lab(io)));
+        let world = mmq_core::World::parse("map = \"\"", "w").unwrap_err();
+        assert!(is_input_error(&world) && !names_fields(&world));
+        let learn = mmq_learn::LearnError::InvalidParam { field: "gamma", value: "1".into(), accepted: "<1" };
+        assert!(names_fields(&learn) && !is_input_error(&learn));
+        let unknown = mmq_learn::LearnError::UnknownLearner { name: "x".into(), known: "q".into() };
+        assert!(!names_fields(&unknown));
+        let plain = std::io::Error::other("x");
+        assert!(!is_input_error(&plain) && !names_fields(&plain));
+    }
+
+    #[test]
     fn durations_read_as_text() {
         assert_eq!(duration(42.4), "42 s");
         assert_eq!(duration(185.0), "3 min 05 s");
@@ -291,9 +370,8 @@ mod tests {
         assert_eq!(progress_line("x", 10, 0, 2.0), "x: 10 of 0 steps, 5 steps/s, 2 s elapsed");
         assert_eq!(progress_done("run", 600, 600, 120.0), "run: 600 of 600 steps in 2 min 00 s, 5 steps/s");
         // Lines come no more often than asked, and the last one counts everything.
-        let p = LineProgress::new("run", 100, Duration::from_secs(3600));
+        let p = LineProgress::new("run", 200, Duration::from_secs(3600));
         assert_eq!((p.inc(40), p.inc(60)), (None, None));
-        p.set_length(200);
         assert!(p.finish().starts_with("run: 100 of 200 steps in "), "{}", p.finish());
         let p = LineProgress::new("run", 100, Duration::ZERO);
         assert!(p.inc(40).is_some_and(|l| l.starts_with("run: 40 of 100 steps (40 %), ")));
@@ -309,6 +387,28 @@ mod tests {
         );
         let (text, ok) = verdict(&Verdict::Interrupted { steps: 7 });
         assert!(ok && text.ends_with("after re-running 7 steps; nothing concluded"), "{text}");
+    }
+
+    #[test]
+    fn live_and_served_lines_say_where_and_what() {
+        let addr: SocketAddr = "127.0.0.1:8765".parse().unwrap();
+        assert_eq!(
+            serving(Path::new("t.mcap"), 12, (1_000_000_000, 3_500_000_000), addr),
+            "serving t.mcap (12 messages, 2.5 s of simulated time) on ws://127.0.0.1:8765: open it in the \
+             Foxglove app (Open connection → Foxglove WebSocket), press play; Ctrl-C stops"
+        );
+        assert!(
+            live_view(addr, 7).starts_with("live view: ws://127.0.0.1:8765 (")
+                && live_view(addr, 7).ends_with("showing seed 7")
+        );
+        let stop = ReadStop { offset: 10, file_len: 20, messages: 3, reason: "truncated".into() };
+        assert_eq!(
+            read_stopped(Path::new("t.mcap"), &stop),
+            "warning: t.mcap: read stopped at byte 10 of 20 (truncated); recovered 3 messages"
+        );
+        let names: Vec<String> =
+            learners().lines().map(|l| l.split(' ').next().unwrap().to_string()).collect();
+        assert_eq!(names, mmq_learn::catalogue().iter().map(|c| c.1).collect::<Vec<_>>());
     }
 
     #[test]
