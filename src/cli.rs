@@ -73,6 +73,10 @@ pub struct PaperArgs {
     /// Output directory.
     #[arg(long, short, default_value = "report")]
     pub out: PathBuf,
+    /// Folder of edited figure specs (e.g. a copy of worlds/sweeps/paper-fig6.toml) run
+    /// instead of the built-in ones of the same name.
+    #[arg(long)]
+    pub specs: Option<PathBuf>,
     /// No progress bars.
     #[arg(long, short)]
     pub quiet: bool,

@@ -24,7 +24,7 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
         steps: a.steps,
         seed: a.seed,
         out: a.out,
-        specs: None,
+        specs: a.specs,
     };
     let done = mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet))?;
     println!("wrote {} ({} files) in {:.1} s", done.report.display(), done.files, done.wall_s);
