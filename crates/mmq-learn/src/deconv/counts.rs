@@ -125,6 +125,8 @@ impl Merged {
 pub(crate) struct CoCounts {
     merged: Arc<Merged>,
     pending: Vec<u64>,
+    /// The radix sort's second buffer (kept between merges).
+    scratch: Vec<u64>,
 }
 
 impl CoCounts {
@@ -144,34 +146,33 @@ impl CoCounts {
             return;
         }
         let mut new = std::mem::take(&mut self.pending);
-        new.sort_unstable();
+        radix_sort(&mut new, &mut self.scratch);
         let old = std::mem::take(&mut self.merged);
         let (old_k, old_c) = (&old.keys, &old.counts);
         let mut keys = Vec::with_capacity(old_k.len() + new.len());
         let mut counts = Vec::with_capacity(old_k.len() + new.len());
         let (mut a, mut b) = (0, 0);
-        while a < old_k.len() || b < new.len() {
-            // The next run of equal new keys.
-            let nk = new.get(b).copied().unwrap_or(u64::MAX);
-            let ok = old_k.get(a).copied().unwrap_or(u64::MAX);
-            if b < new.len() && (a == old_k.len() || nk <= ok) {
-                let mut run = 0u32;
-                while b < new.len() && new[b] == nk {
-                    run += 1;
-                    b += 1;
-                }
-                if a < old_k.len() && ok == nk {
-                    run += old_c[a];
-                    a += 1;
-                }
-                keys.push(nk);
-                counts.push(run);
-            } else {
-                keys.push(ok);
-                counts.push(old_c[a]);
+        while b < new.len() {
+            // The next run of equal new keys; the old keys below it are copied as they are.
+            let nk = new[b];
+            let mut run = 0u32;
+            while b < new.len() && new[b] == nk {
+                run += 1;
+                b += 1;
+            }
+            let below = a + gallop(&old_k[a..], nk);
+            keys.extend_from_slice(&old_k[a..below]);
+            counts.extend_from_slice(&old_c[a..below]);
+            a = below;
+            if a < old_k.len() && old_k[a] == nk {
+                run += old_c[a];
                 a += 1;
             }
+            keys.push(nk);
+            counts.push(run);
         }
+        keys.extend_from_slice(&old_k[a..]);
+        counts.extend_from_slice(&old_c[a..]);
         drop(old);
         keys.shrink_to_fit();
         counts.shrink_to_fit();
@@ -197,7 +198,55 @@ impl CoCounts {
             + m.counts.capacity() * 4
             + m.tpos.capacity() * 4
             + (m.fptr.capacity() + m.tptr.capacity()) * 8
-            + self.pending.capacity() * 8
+            + (self.pending.capacity() + self.scratch.capacity()) * 8
+    }
+}
+
+/// The number of leading entries of the ascending `keys` below `k`, by galloping from the
+/// front (O(log d) for an answer d: cheap when the next new key is near).
+fn gallop(keys: &[u64], k: u64) -> usize {
+    let mut hi = 1;
+    while hi < keys.len() && keys[hi - 1] < k {
+        hi *= 2;
+    }
+    let lo = hi / 2;
+    let hi = hi.min(keys.len());
+    lo + keys[lo..hi].partition_point(|&x| x < k)
+}
+
+/// Sorts `keys` ascending: least-significant-digit radix sort by bytes, skipping the
+/// bytes in which every key agrees (most of them: lags and pair indices use few of their
+/// bits); `scratch` is the second buffer. The sorted keys are the same as any sort's.
+fn radix_sort(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
+    let n = keys.len();
+    if n < 1024 {
+        keys.sort_unstable();
+        return;
+    }
+    let mut hist = [[0usize; 256]; 8];
+    for &k in keys.iter() {
+        for (d, h) in hist.iter_mut().enumerate() {
+            h[((k >> (8 * d)) & 0xff) as usize] += 1;
+        }
+    }
+    scratch.clear();
+    scratch.resize(n, 0);
+    for (d, h) in hist.iter().enumerate() {
+        if h.contains(&n) {
+            continue;
+        }
+        let mut at = [0usize; 256];
+        let mut acc = 0;
+        for (slot, &c) in at.iter_mut().zip(h) {
+            *slot = acc;
+            acc += c;
+        }
+        for &k in keys.iter() {
+            let digit = ((k >> (8 * d)) & 0xff) as usize;
+            scratch[at[digit]] = k;
+            at[digit] += 1;
+        }
+        std::mem::swap(keys, scratch);
     }
 }
 
@@ -212,6 +261,29 @@ mod tests {
         }
         // Key order is (earlier, later, lag) order.
         assert!(key(0, 5, 9) < key(1, 0, 0) && key(1, 0, 9) < key(1, 1, 0) && key(1, 1, 0) < key(1, 1, 1));
+    }
+
+    /// The radix sort and the galloping search agree with the standard ones, on keys
+    /// that differ in few bytes and in many.
+    #[test]
+    fn radix_sort_and_gallop_agree_with_std() {
+        let mut rng = mmq_core::seed::rng_from_seed(3);
+        use rand::RngExt;
+        let mut scratch = Vec::new();
+        for (n, pairs) in [(10, 5), (5000, 40), (20_000, 9000)] {
+            let mut keys: Vec<u64> = (0..n)
+                .map(|_| key(rng.random_range(0..pairs), rng.random_range(0..pairs), rng.random_range(0..51)))
+                .collect();
+            keys.push(key(MAX_PAIRS - 1, MAX_PAIRS - 1, 65_536));
+            let mut want = keys.clone();
+            want.sort_unstable();
+            radix_sort(&mut keys, &mut scratch);
+            assert_eq!(keys, want);
+            for probe in [0, want[0], want[n / 2], want[n / 2] + 1, want[n], u64::MAX] {
+                assert_eq!(gallop(&want, probe), want.partition_point(|&x| x < probe));
+            }
+        }
+        assert_eq!(gallop(&[], 5), 0);
     }
 
     /// Counts merged in several batches equal counting them all at once; runs by lag.
