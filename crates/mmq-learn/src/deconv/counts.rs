@@ -125,8 +125,6 @@ impl Merged {
 pub(crate) struct CoCounts {
     merged: Arc<Merged>,
     pending: Vec<u64>,
-    /// The radix sort's second buffer (kept between merges).
-    scratch: Vec<u64>,
 }
 
 impl CoCounts {
@@ -146,7 +144,7 @@ impl CoCounts {
             return;
         }
         let mut new = std::mem::take(&mut self.pending);
-        radix_sort(&mut new, &mut self.scratch);
+        new.sort_unstable();
         let old = std::mem::take(&mut self.merged);
         let (old_k, old_c) = (&old.keys, &old.counts);
         let mut keys = Vec::with_capacity(old_k.len() + new.len());
@@ -198,7 +196,7 @@ impl CoCounts {
             + m.counts.capacity() * 4
             + m.tpos.capacity() * 4
             + (m.fptr.capacity() + m.tptr.capacity()) * 8
-            + (self.pending.capacity() + self.scratch.capacity()) * 8
+            + self.pending.capacity() * 8
     }
 }
 
@@ -214,42 +212,6 @@ fn gallop(keys: &[u64], k: u64) -> usize {
     lo + keys[lo..hi].partition_point(|&x| x < k)
 }
 
-/// Sorts `keys` ascending: least-significant-digit radix sort by bytes, skipping the
-/// bytes in which every key agrees (most of them: lags and pair indices use few of their
-/// bits); `scratch` is the second buffer. The sorted keys are the same as any sort's.
-fn radix_sort(keys: &mut Vec<u64>, scratch: &mut Vec<u64>) {
-    let n = keys.len();
-    if n < 1024 {
-        keys.sort_unstable();
-        return;
-    }
-    let mut hist = [[0usize; 256]; 8];
-    for &k in keys.iter() {
-        for (d, h) in hist.iter_mut().enumerate() {
-            h[((k >> (8 * d)) & 0xff) as usize] += 1;
-        }
-    }
-    scratch.clear();
-    scratch.resize(n, 0);
-    for (d, h) in hist.iter().enumerate() {
-        if h.contains(&n) {
-            continue;
-        }
-        let mut at = [0usize; 256];
-        let mut acc = 0;
-        for (slot, &c) in at.iter_mut().zip(h) {
-            *slot = acc;
-            acc += c;
-        }
-        for &k in keys.iter() {
-            let digit = ((k >> (8 * d)) & 0xff) as usize;
-            scratch[at[digit]] = k;
-            at[digit] += 1;
-        }
-        std::mem::swap(keys, scratch);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -263,22 +225,18 @@ mod tests {
         assert!(key(0, 5, 9) < key(1, 0, 0) && key(1, 0, 9) < key(1, 1, 0) && key(1, 1, 0) < key(1, 1, 1));
     }
 
-    /// The radix sort and the galloping search agree with the standard ones, on keys
-    /// that differ in few bytes and in many.
+    /// The galloping search agrees with a binary search.
     #[test]
-    fn radix_sort_and_gallop_agree_with_std() {
+    fn gallop_agrees_with_partition_point() {
         let mut rng = mmq_core::seed::rng_from_seed(3);
         use rand::RngExt;
-        let mut scratch = Vec::new();
         for (n, pairs) in [(10, 5), (5000, 40), (20_000, 9000)] {
             let mut keys: Vec<u64> = (0..n)
                 .map(|_| key(rng.random_range(0..pairs), rng.random_range(0..pairs), rng.random_range(0..51)))
                 .collect();
             keys.push(key(MAX_PAIRS - 1, MAX_PAIRS - 1, 65_536));
-            let mut want = keys.clone();
-            want.sort_unstable();
-            radix_sort(&mut keys, &mut scratch);
-            assert_eq!(keys, want);
+            keys.sort_unstable();
+            let want = keys;
             for probe in [0, want[0], want[n / 2], want[n / 2] + 1, want[n], u64::MAX] {
                 assert_eq!(gallop(&want, probe), want.partition_point(|&x| x < probe));
             }
