@@ -131,6 +131,32 @@ pub struct MedianSe {
     pub steps: f64,
 }
 
+/// `out` = A v for the row-major square matrix `a`: each entry Σ_j a(i, j) v(j) summed in
+/// j order from −0, as `Iterator::sum` does (the same number bit for bit), four rows at a
+/// time so that their sums overlap instead of waiting on one another.
+pub(crate) fn mat_vec(a: &[f64], v: &[f64], out: &mut [f64]) {
+    let k_n = v.len();
+    debug_assert!(a.len() == k_n * k_n && out.len() == k_n);
+    let mut quads = a.chunks_exact(4 * k_n);
+    let mut outs = out.chunks_exact_mut(4);
+    for (rows, o) in (&mut quads).zip(&mut outs) {
+        let (r0, rest) = rows.split_at(k_n);
+        let (r1, rest) = rest.split_at(k_n);
+        let (r2, r3) = rest.split_at(k_n);
+        let mut s = [-0.0f64; 4];
+        for ((((&x0, &x1), &x2), &x3), &vj) in r0.iter().zip(r1).zip(r2).zip(r3).zip(v) {
+            s[0] += x0 * vj;
+            s[1] += x1 * vj;
+            s[2] += x2 * vj;
+            s[3] += x3 * vj;
+        }
+        o.copy_from_slice(&s);
+    }
+    for (row, o) in quads.remainder().chunks_exact(k_n).zip(outs.into_remainder()) {
+        *o = row.iter().zip(v).map(|(x, y)| x * y).sum();
+    }
+}
+
 /// argmin over {p ≥ 0, Σ p ≤ 1} of ½ pᵀAp − cᵀp + ½ ν ‖p − uniform‖² + Σ_k λ_k p_k by
 /// FISTA from `warm`, renormalised to sum to one (`None` when A carries no information).
 pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]) -> Option<Vec<f64>> {
@@ -138,7 +164,8 @@ pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]
     let mut v = vec![1.0; k_n];
     let mut lmax = 0.0;
     for _ in 0..30 {
-        let w: Vec<f64> = (0..k_n).map(|i| (0..k_n).map(|j| a[i * k_n + j] * v[j]).sum()).collect();
+        let mut w = vec![0.0; k_n];
+        mat_vec(a, &v, &mut w);
         let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
         if norm == 0.0 || !norm.is_finite() {
             return None;
@@ -152,11 +179,11 @@ pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]
     let mut z = p.clone();
     let mut theta: f64 = 1.0;
     let mut next = vec![0.0; k_n];
+    let mut az = vec![0.0; k_n];
     for _ in 0..QP_ITERS {
+        mat_vec(a, &z, &mut az);
         for i in 0..k_n {
-            let row = &a[i * k_n..(i + 1) * k_n];
-            let grad: f64 =
-                row.iter().zip(&z).map(|(x, y)| x * y).sum::<f64>() - c[i] + nu * (z[i] - uni) + lam[i];
+            let grad: f64 = az[i] - c[i] + nu * (z[i] - uni) + lam[i];
             next[i] = z[i] - step * grad;
         }
         project_capped_simplex(&mut next);
@@ -241,10 +268,12 @@ impl Deconvolver {
         if cfg.settings.pmf_weighted {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
+            // R̂ does not change between the passes: its predictions are found once.
+            let preds: Vec<Predictions> = systems.iter().map(|(di, r, _)| ds[*di].predictions(r)).collect();
             for _ in 0..WEIGHTED_PASSES {
-                let sum = systems
-                    .iter()
-                    .fold(None, |sum, (di, r, rm)| add_system(sum, ds[*di].weighted_stats(r, &p, *rm)));
+                let sum = systems.iter().zip(&preds).fold(None, |sum, ((di, _, rm), pred)| {
+                    add_system(sum, ds[*di].weighted_stats(pred, &p, *rm))
+                });
                 let Some((mut aw, cw)) = sum else { break };
                 let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
                 if trace_w <= 0.0 {
@@ -271,9 +300,24 @@ impl Deconvolver {
         }
     }
 
+    /// The non-zero predictions y_t = R̂(x_t) over the stored history.
+    fn predictions(&self, r: &[f64]) -> Predictions {
+        let mut pred = Predictions::default();
+        for (t, &i) in self.hist_x.iter().enumerate() {
+            let y = r[i as usize];
+            if y != 0.0 {
+                pred.steps.push(t as u32);
+                pred.y.push(y);
+            }
+        }
+        pred
+    }
+
     /// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over the stored history, ỹ_t(k) = y_{t−k},
-    /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀).
-    fn weighted_stats(&self, r: &[f64], p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
+    /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀), from the non-zero predictions
+    /// `pred`: a step whose last K + 1 predictions are all zero adds nothing and is skipped.
+    /// Each sum is taken over t in order, bit for bit as a pass over every step.
+    fn weighted_stats(&self, pred: &Predictions, p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
         let k_n = self.cfg.settings.max_delay + 1;
         let delta = 0.25 / k_n as f64;
         let v0 = 0.01 * rmax * rmax;
@@ -281,45 +325,63 @@ impl Deconvolver {
         let mut c = vec![0.0; k_n];
         // The variance factor of each lag.
         let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
-        // The steps of the last K + 1 with y ≠ 0, oldest first: (step, y).
-        let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
-        let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
-        for (t, (&i, &rt)) in self.hist_x.iter().zip(&self.hist_r).enumerate() {
-            let y = r[i as usize];
-            if y != 0.0 {
-                window.push_back((t, y));
+        let (steps, ys) = (&pred.steps, &pred.y);
+        // The predictions of the last K + 1 steps are steps[lo..hi] (oldest first); their
+        // lags t − u in `ks`.
+        let (mut lo, mut hi, mut t) = (0, 0, 0);
+        let mut ks: Vec<usize> = Vec::with_capacity(k_n);
+        while t < self.hist_r.len() {
+            while hi < steps.len() && steps[hi] as usize <= t {
+                hi += 1;
             }
-            while window.front().is_some_and(|&(u, _)| u + k_n <= t) {
-                window.pop_front();
+            while lo < hi && steps[lo] as usize + k_n <= t {
+                lo += 1;
             }
-            if window.is_empty() {
-                continue;
+            if lo == hi {
+                match steps.get(hi) {
+                    Some(&u) => {
+                        t = u as usize;
+                        continue;
+                    }
+                    None => break,
+                }
             }
-            live.clear();
+            let live = &ys[lo..hi];
+            ks.clear();
             let mut v = v0;
-            for &(u, yu) in &window {
-                let k = t - u;
+            for (&u, &yu) in steps[lo..hi].iter().zip(live) {
+                let k = t - u as usize;
                 v += var[k] * yu * yu;
-                live.push((k, yu));
+                ks.push(k);
             }
             let w = 1.0 / v;
             // c never holds −0, so adding the zeros of rt = 0 would change nothing.
+            let rt = self.hist_r[t];
             if rt != 0.0 {
                 let wr = w * rt;
-                for &(k1, y1) in &live {
+                for (&k1, &y1) in ks.iter().zip(live) {
                     c[k1] += wr * y1;
                 }
             }
-            for &(k1, y1) in &live {
+            for (&k1, &y1) in ks.iter().zip(live) {
                 let wy = w * y1;
                 let row = &mut a[k1 * k_n..(k1 + 1) * k_n];
-                for &(k2, y2) in &live {
+                for (&k2, &y2) in ks.iter().zip(live) {
                     row[k2] += wy * y2;
                 }
             }
+            t += 1;
         }
         (a, c)
     }
+}
+
+/// The steps of the stored history whose prediction y_t = R̂(x_t) is not zero, in step
+/// order, and those predictions.
+#[derive(Debug, Default)]
+struct Predictions {
+    steps: Vec<u32>,
+    y: Vec<f64>,
 }
 
 #[cfg(test)]
@@ -328,6 +390,105 @@ mod tests {
     use crate::deconv::tests::cfg;
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
+
+    impl Deconvolver {
+        /// [`Deconvolver::weighted_stats`] by a pass over every step with a window of the
+        /// non-zero predictions among the last K + 1.
+        fn weighted_stats_reference(&self, r: &[f64], p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
+            let k_n = self.cfg.settings.max_delay + 1;
+            let delta = 0.25 / k_n as f64;
+            let v0 = 0.01 * rmax * rmax;
+            let mut a = vec![0.0; k_n * k_n];
+            let mut c = vec![0.0; k_n];
+            // The variance factor of each lag.
+            let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
+            // The steps of the last K + 1 with y ≠ 0, oldest first: (step, y).
+            let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
+            let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
+            for (t, (&i, &rt)) in self.hist_x.iter().zip(&self.hist_r).enumerate() {
+                let y = r[i as usize];
+                if y != 0.0 {
+                    window.push_back((t, y));
+                }
+                while window.front().is_some_and(|&(u, _)| u + k_n <= t) {
+                    window.pop_front();
+                }
+                if window.is_empty() {
+                    continue;
+                }
+                live.clear();
+                let mut v = v0;
+                for &(u, yu) in &window {
+                    let k = t - u;
+                    v += var[k] * yu * yu;
+                    live.push((k, yu));
+                }
+                let w = 1.0 / v;
+                // c never holds −0, so adding the zeros of rt = 0 would change nothing.
+                if rt != 0.0 {
+                    let wr = w * rt;
+                    for &(k1, y1) in &live {
+                        c[k1] += wr * y1;
+                    }
+                }
+                for &(k1, y1) in &live {
+                    let wy = w * y1;
+                    let row = &mut a[k1 * k_n..(k1 + 1) * k_n];
+                    for &(k2, y2) in &live {
+                        row[k2] += wy * y2;
+                    }
+                }
+            }
+            (a, c)
+        }
+    }
+
+    /// The reweighted pass from the non-zero predictions equals the pass over every step
+    /// bit for bit: a random history over five pairs (two with R̂ = 0, so that some windows
+    /// are empty and long gaps are skipped), rewards of either sign and zeros, two pmfs.
+    #[test]
+    fn weighted_stats_equal_the_pass_over_every_step() {
+        let k = 7;
+        let mut c = cfg(k, None);
+        c.settings.pmf_weighted = true;
+        let mut d = Deconvolver::new(c, 5, 1);
+        let mut rng = rng_from_seed(31);
+        for t in 0..5000 {
+            // Rare non-zero pairs, in bursts and with long gaps.
+            let x = if (t / 400) % 3 == 2 { rng.random_range(0..2) } else { rng.random_range(0..5) };
+            let r = if rng.random_bool(0.3) { rng.random_range(-2.0..3.0) } else { 0.0 };
+            d.record(x, r);
+        }
+        let r_by_id = [0.0, 0.0, 1.5, -0.75, 10.0];
+        let r: Vec<f64> = d.stats.pairs.iter().map(|&x| r_by_id[x as usize]).collect();
+        let pred = d.predictions(&r);
+        assert!(pred.steps.len() > 100 && pred.steps.len() < 5000);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for p in [vec![1.0 / 8.0; 8], vec![0.0, 0.1, 0.5, 0.2, 0.0, 0.1, 0.1, 0.0]] {
+            let (a, c) = d.weighted_stats(&pred, &p, 10.0);
+            let (a_ref, c_ref) = d.weighted_stats_reference(&r, &p, 10.0);
+            assert_eq!(bits(&a), bits(&a_ref));
+            assert_eq!(bits(&c), bits(&c_ref));
+            assert!(a.iter().any(|&x| x != 0.0) && c.iter().any(|&x| x != 0.0));
+        }
+    }
+
+    /// The matrix-vector product four rows at a time equals the row sums one by one,
+    /// bit for bit, for sizes with and without a remainder of rows.
+    #[test]
+    fn mat_vec_equals_row_sums() {
+        let mut rng = rng_from_seed(5);
+        for k_n in [1, 3, 4, 7, 51] {
+            let a: Vec<f64> = (0..k_n * k_n).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let v: Vec<f64> = (0..k_n).map(|_| rng.random_range(-1.0..1.0)).collect();
+            let mut out = vec![0.0; k_n];
+            mat_vec(&a, &v, &mut out);
+            for i in 0..k_n {
+                let want: f64 = a[i * k_n..(i + 1) * k_n].iter().zip(&v).map(|(x, y)| x * y).sum();
+                assert_eq!(out[i].to_bits(), want.to_bits(), "k_n {k_n}, row {i}");
+            }
+        }
+    }
 
     /// Two lags, A = diag(2, 2), ν = 0, p = (½, ½): the median is 0.5 (bin 1, none of
     /// it below 0.5, so e = (1, 0)); Var F = eᵀM⁻¹e − (eᵀM⁻¹1)² / 1ᵀM⁻¹1 = ½ − ¼ / 1 = ¼;
