@@ -147,11 +147,22 @@ impl Plan {
         seen
     }
 
-    /// The parameters that are the same in every cell, as `(field, value)`.
+    /// The parameters that are the same in every cell, as `(field, value)`, without the
+    /// learner settings that are fields of a cell (`max_delay`, `lambda_hat`) when no
+    /// learner of the plan has them: they hold their defaults, which nothing reads.
     pub fn fixed(&self) -> Vec<(String, String)> {
+        let learners: Vec<mmq_learn::LearnerKind> = self
+            .axis_values("learner")
+            .iter()
+            .filter_map(|l| mmq_learn::LearnerKind::parse(l).ok())
+            .collect();
+        let read = |f: &str| {
+            !super::cell::LEARNER_FIELDS.contains(&f)
+                || learners.iter().any(|&k| crate::settings::has_setting(k, f))
+        };
         self.fields
             .iter()
-            .filter(|f| !self.axes.contains(f))
+            .filter(|f| !self.axes.contains(f) && read(f))
             .map(|f| (f.clone(), if self.cells.is_empty() { String::new() } else { self.param(0, f).into() }))
             .collect()
     }

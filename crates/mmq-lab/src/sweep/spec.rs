@@ -321,6 +321,15 @@ mod tests {
         // Absent, they keep their defaults in every cell (and in the cell ids).
         let v = spec("world = \"../paper-3x3.toml\"\nlearner = \"q\"\n").unwrap();
         assert_eq!(v.plan.param(0, "max_delay"), "50");
+        // The plan's fixed parameters leave out those no learner of the sweep reads.
+        let fixed: Vec<String> = v.plan.fixed().into_iter().map(|f| f.0).collect();
+        assert!(
+            fixed.contains(&"alpha".to_string())
+                && !fixed.iter().any(|f| f == "max_delay" || f == "lambda_hat")
+        );
+        let w = spec("world = \"../paper-3x3.toml\"\nlearner = [\"q\", \"fixed\"]\n").unwrap();
+        let fixed: Vec<String> = w.plan.fixed().into_iter().map(|f| f.0).collect();
+        assert!(fixed.contains(&"lambda_hat".to_string()) && !fixed.contains(&"max_delay".to_string()));
         let e = spec(&format!("{base}[settings]\nlasso = 0.2\n")).unwrap_err().to_string();
         assert!(
             e.contains("settings.lasso: no learner of the sweep (q, q-lambda, mmq) has this setting"),
