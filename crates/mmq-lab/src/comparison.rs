@@ -180,33 +180,20 @@ pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError
         let seeds = o.seeds_for(spec.plan.seeds_of(c).len() as u64);
         v.push((setting, crate::paper::at_budget(cell, o.steps, o.window, o.seed, seeds)));
     }
-    let first = |key: fn(&Setting) -> String| {
-        let mut seen: Vec<String> = Vec::new();
-        for (s, _) in &v {
-            if !seen.contains(&key(s)) {
-                seen.push(key(s));
-            }
-        }
-        seen
-    };
-    let order: [Vec<String>; 4] = [
-        first(|s| s.world.clone()),
-        first(|s| s.delay.clone()),
-        first(|s| s.epsilon.to_string()),
-        first(|s| s.learner.name().to_string()),
-    ];
-    let rank = |s: &Setting| {
-        let at = |k: usize, x: String| order[k].iter().position(|y| *y == x).unwrap_or(usize::MAX);
-        (
-            s.told,
-            at(0, s.world.clone()),
-            at(1, s.delay.clone()),
-            at(2, s.epsilon.to_string()),
-            at(3, s.learner.name().to_string()),
-        )
-    };
-    v.sort_by_key(|(s, _)| rank(s));
-    Ok(v)
+    // Each setting's key: world, delay, ε and learner as the spec first names them.
+    let keys: Vec<[String; 4]> = v
+        .iter()
+        .map(|(s, _)| [s.world.clone(), s.delay.clone(), s.epsilon.to_string(), s.learner.name().to_string()])
+        .collect();
+    let first_at = |k: usize, x: &String| keys.iter().position(|key| key[k] == *x).unwrap_or(usize::MAX);
+    let ranks: Vec<(bool, [usize; 4])> = v
+        .iter()
+        .zip(&keys)
+        .map(|((s, _), key)| (s.told, [0, 1, 2, 3].map(|k| first_at(k, &key[k]))))
+        .collect();
+    let mut ranked: Vec<_> = ranks.into_iter().zip(v).collect();
+    ranked.sort_by_key(|(rank, _)| *rank);
+    Ok(ranked.into_iter().map(|(_, setting)| setting).collect())
 }
 
 /// The seeds of the first 9×9 headline setting, the first other 9×9 setting, and the

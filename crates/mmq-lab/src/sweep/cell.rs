@@ -84,8 +84,7 @@ impl CellFields {
         t.get(name).map(value_text)
     }
 
-    /// The learner's kind, the environment, and the run configuration of this cell with
-    /// its world at `world`, the first seed `seed` and the learner settings `settings`
+    /// The run configuration of this cell with its world at `world`, the first seed `seed` and the learner settings `settings`
     /// (those `[settings]` gives; `max_delay` and `lambda_hat` are added for learners
     /// that have them).
     pub(super) fn run_config(

@@ -25,10 +25,11 @@ pub struct Plan {
     pub seeds: Vec<u64>,
     /// The cells in product order (first field outermost).
     pub cells: Vec<PlanCell>,
-    /// Where each cell's jobs start, when cells have seeds of their own (computed once,
-    /// on first use).
+    /// Where each cell's jobs start (and after the last cell, the number of jobs) when
+    /// cells have seeds of their own; `None` when every cell runs [`Plan::seeds`].
+    /// Computed once, on first use.
     #[serde(skip)]
-    starts: OnceLock<Vec<usize>>,
+    starts: OnceLock<Option<Vec<usize>>>,
 }
 
 /// Plans are equal when what they say is (the job index is derived from it).
@@ -67,24 +68,32 @@ impl Plan {
 
     /// Number of (cell, seed) jobs.
     pub fn jobs(&self) -> usize {
-        if self.uniform() { self.cells.len() * self.seeds.len() } else { *self.starts().last().unwrap_or(&0) }
+        match self.starts() {
+            None => self.cells.len() * self.seeds.len(),
+            Some(s) => s[s.len() - 1],
+        }
     }
 
     /// Whether every cell runs [`Plan::seeds`] (no cell has seeds of its own).
     pub fn uniform(&self) -> bool {
-        self.cells.iter().all(|c| c.seeds.is_none())
+        self.starts().is_none()
     }
 
-    /// Where the jobs of each cell start, and after the last one the number of jobs.
-    fn starts(&self) -> &[usize] {
-        self.starts.get_or_init(|| {
-            let mut v = Vec::with_capacity(self.cells.len() + 1);
-            v.push(0);
-            for c in 0..self.cells.len() {
-                v.push(v[c] + self.seeds_of(c).len());
-            }
-            v
-        })
+    /// Where the jobs of each cell start, and after the last one the number of jobs;
+    /// `None` for a uniform plan, whose jobs are `cell × seeds + seed`.
+    fn starts(&self) -> Option<&[usize]> {
+        self.starts
+            .get_or_init(|| {
+                self.cells.iter().any(|c| c.seeds.is_some()).then(|| {
+                    let mut v = Vec::with_capacity(self.cells.len() + 1);
+                    v.push(0);
+                    for c in 0..self.cells.len() {
+                        v.push(v[c] + self.seeds_of(c).len());
+                    }
+                    v
+                })
+            })
+            .as_deref()
     }
 
     /// The master seeds of cell `c`.
@@ -94,24 +103,25 @@ impl Plan {
 
     /// The jobs of cell `c`: consecutive, one per seed.
     pub fn cell_jobs(&self, c: usize) -> std::ops::Range<usize> {
-        if self.uniform() {
-            let n = self.seeds.len();
-            c * n..(c + 1) * n
-        } else {
-            let s = self.starts();
-            s[c]..s[c + 1]
+        match self.starts() {
+            None => c * self.seeds.len()..(c + 1) * self.seeds.len(),
+            Some(s) => s[c]..s[c + 1],
         }
     }
 
     /// Cell index and master seed of job `j` (seeds vary fastest).
     pub fn job(&self, j: usize) -> (usize, u64) {
-        if self.uniform() {
-            let n = self.seeds.len().max(1);
-            return (j / n, self.seeds[j % n]);
+        match self.starts() {
+            None => {
+                let n = self.seeds.len().max(1);
+                (j / n, self.seeds[j % n])
+            }
+            Some(s) => {
+                // The last cell whose jobs start at or before j.
+                let c = s.partition_point(|&x| x <= j) - 1;
+                (c, self.seeds_of(c)[j - s[c]])
+            }
         }
-        // The last cell whose jobs start at or before j.
-        let c = self.starts().partition_point(|&s| s <= j) - 1;
-        (c, self.seeds_of(c)[j - self.starts()[c]])
     }
 
     /// Its size in words: `6 cells × 3 seeds = 18 jobs`, or for cells with seeds of their

@@ -101,11 +101,11 @@ impl SweepSpec {
 /// list in some part or differs between cells an axis, and each cell with its part's
 /// seeds when the parts' seeds differ. One product is the spec as it is.
 fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
-    let rank = |f: &str| {
-        FIELDS
-            .iter()
-            .position(|x| *x == f)
-            .unwrap_or(FIELDS.len() + usize::from(f != "robot") + usize::from(f != "robot" && f != "curve"))
+    // FIELDS, then `robot`, `curve` and the settings.
+    let rank = |f: &str| match f {
+        "robot" => FIELDS.len(),
+        "curve" => FIELDS.len() + 1,
+        f => FIELDS.iter().position(|x| *x == f).unwrap_or(FIELDS.len() + 2),
     };
     let mut fields: Vec<String> = Vec::new();
     for p in &products {

@@ -9,7 +9,7 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::{Deserialize, Serialize, Serializer};
 use toml::Spanned;
 
-use super::cell::CellFields;
+use super::FIELDS;
 use crate::error::LabError;
 
 /// `seeds = N` (N seeds from `seed`) or `seeds = [s1, s2, ...]` (explicit master seeds).
@@ -194,8 +194,8 @@ impl Given {
         Ok(g)
     }
 
-    /// Takes the cell field `key = value`; a key that is not one is refused by the
-    /// cells' own deserialisation.
+    /// Takes the cell field `key = value`; a key that is not one (of [`FIELDS`] or
+    /// `robot`, the fields of `super::cell::CellFields`) is refused at the key.
     fn field(
         &mut self,
         src: &Source<'_>,
@@ -203,10 +203,12 @@ impl Given {
         value: Spanned<toml::Value>,
     ) -> Result<(), LabError> {
         let (at, name) = (key.span().start, key.into_inner());
-        if let Err(m) = CellFields::from_values([(name.as_str(), value.get_ref())])
-            && m.starts_with("unknown field")
-        {
-            return Err(src.error(at, &name, format!("{m}; see docs/sweeps.md")));
+        let cell_fields = || FIELDS.iter().chain(&["robot"]);
+        if !cell_fields().any(|f| *f == name) {
+            let known: Vec<String> = cell_fields().map(|f| format!("`{f}`")).collect();
+            let message =
+                format!("unknown field `{name}`, expected one of {}; see docs/sweeps.md", known.join(", "));
+            return Err(src.error(at, &name, message));
         }
         self.fields.insert(name, value);
         Ok(())
