@@ -9,33 +9,40 @@
 //! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) max_a' Q(s', a')  otherwise          (M1)
 //! ```
 //!
-//! The default is a fixed count: a pair is known once N(x) ≥ m = `optimism_visits`.
-//!
-//! *Exploration from confidence* (z = `optimism_confidence` > 0; off by default). A pair
-//! stays optimistic (R-max style, on top of ε-greedy) until the reward fit could tell
-//! its reward apart from one of the largest size in the world. Under the delay estimate
-//! p̂ each visit u of x contributes ψ_t(x) = p̂(t − u) to the fit's regressor at step t
-//! (after t − u steps), so after the steps seen so far (the last at t − 1) x carries the
-//! information (the diagonal of the fit's Gram matrix, without the cross terms of visits
-//! less than K steps apart)
+//! *Exploration from confidence* (the default, z = `optimism_confidence` = 2). A pair
+//! stays optimistic (R-max style, on top of ε-greedy) until the reward fit has settled
+//! its reward: the fit has found one there, or it would find one as large as the largest
+//! in the world, with z standard errors to spare beyond its own significance threshold.
+//! Under the delay estimate p̂ each visit u of x contributes ψ_t(x) = p̂(t − u) to the
+//! fit's regressor at step t (after t − u steps), so after the steps seen so far (the
+//! last at t − 1) x carries the information (the diagonal of the fit's Gram matrix,
+//! without the cross terms of visits less than K steps apart)
 //!
 //! ```text
 //! I(x) = Σ_{visits u of x} c(t − 1 − u),   c(j) = Σ_{k=0..min(j, K)} p̂(k)²
-//! x is known  ⇔  N(x) ≥ 1  and  z σ̂ / √I(x) ≤ v_max  ⇔  I(x) ≥ z² σ̂² / v_max²   (M2)
+//! x is known  ⇔  N(x) ≥ 1  and  ( R̂(x) ≠ 0  or  (τ + z) σ̂ / √I(x) ≤ v_max )
+//!             ⇔  N(x) ≥ 1  and  ( R̂(x) ≠ 0  or  I(x) ≥ I* = (τ + z)² σ̂² / v_max² )   (M2)
+//! τ = κ √(2 ln m),   m = |X| (1 + 1/|A|)
 //! ```
 //!
 //! σ̂/√I(x) is the standard error of R̂(x) under the reward fit's covariance σ̂² G⁻¹ (its
 //! diagonal, the others held fixed), σ̂² the fit's residual variance per step
-//! ([`crate::decode::ValueDeconvolver::noise_to_scale`]) and v_max the largest reward value
-//! found: a pair is known once a reward as large as any seen would lie z standard errors
-//! from zero. Noise grows with the rewards collected, and the information of a visit with
-//! a sharp delay (Σ p̂(k)² is 0.078 for Poisson 13, 0.02 for a flat pmf on 0..=50): so a
-//! pair needs few visits while rewards are rare and the delay is sharp, and more
+//! ([`crate::decode::ValueDeconvolver::noise_to_scale`]), v_max the largest reward value
+//! found, and τ the fit's threshold in standard errors: κ = `significance` times the
+//! universal threshold over the most features the fit can have (every pair and one
+//! successor group per state). Without τ a pair could be called known while a reward of
+//! that size would still be shrunk to zero: a wall bump known as free ties with every
+//! move of a world without a known goal, and on a maze the agent spent most of its
+//! steps bumping. Noise grows with the rewards collected and the information of a visit
+//! with a sharp delay (Σ p̂(k)² is 0.078 for Poisson 13, 0.02 for a flat pmf on 0..=50):
+//! so a pair needs few visits while rewards are rare and the delay is sharp, and more
 //! once the goal's deliveries crowd the channel. σ̂, v_max and p̂ are those of the last
 //! refit (before the first, σ̂² = Σ r² / t, updated every step); I(x) is updated every
-//! step. Once known, a pair stays known (as under a count):
-//! a rise of σ̂ as the goal is found more often does not send the agent back to pairs it
-//! has already learned.
+//! step. Once known, a pair stays known: a rise of σ̂ as the goal is found more often
+//! does not send the agent back to pairs it has already learned.
+//!
+//! `optimism_confidence = 0` turns the rule off for a fixed count: a pair is known once
+//! N(x) ≥ m = `optimism_visits`.
 //!
 //! *Delay probes.* A policy that has learned to avoid costs also stops producing the
 //! rewards that date the delay best: its goal rewards come at a near-constant period, and
@@ -70,6 +77,8 @@ pub struct DeconvModel {
     /// (s', N(s, a, s')) per pair.
     next: Vec<Vec<(u32, u32)>>,
     deconv: ValueDeconvolver,
+    /// κ of the reward fit's significance threshold (`significance`).
+    significance: f64,
     optimism_visits: u32,
     probes: Probes,
     /// A probe fell due and waits for a state that has one.
@@ -145,9 +154,11 @@ impl Dirty {
 struct Confidence {
     /// z.
     z: f64,
+    /// κ √(2 ln m): the reward fit's significance threshold, in standard errors.
+    detect: f64,
     /// c(j) = Σ_{k ≤ j} p̂(k)², j = 0..=K (c(K) = Σ p̂²).
     cum: Vec<f64>,
-    /// I* = z² σ̂² / v_max².
+    /// I* = (κ √(2 ln m) + z)² σ̂² / v_max².
     needed: f64,
     /// The deconvolver's refits when `cum` and `needed` were computed (None: never).
     refits: Option<u64>,
@@ -160,9 +171,10 @@ struct Confidence {
 }
 
 impl Confidence {
-    fn new(z: f64, pairs: usize) -> Self {
+    fn new(z: f64, detect: f64, pairs: usize) -> Self {
         Self {
             z,
+            detect,
             cum: Vec::new(),
             needed: 0.0,
             refits: None,
@@ -183,7 +195,8 @@ impl Confidence {
                 acc
             })
             .collect();
-        self.needed = self.z * self.z * d.noise_to_scale();
+        let t = self.detect + self.z;
+        self.needed = t * t * d.noise_to_scale();
         self.refits = Some(d.refits());
     }
 
@@ -208,10 +221,13 @@ impl Confidence {
         }
     }
 
-    /// Whether pair `x`, tried `n` times, is known by (M2), with `deficit` filled;
-    /// latches it when it is.
-    fn known(&mut self, x: usize, n: u32) -> bool {
-        if !self.latched[x] && n >= 1 && self.a0() * f64::from(n) - self.deficit[x] >= self.needed {
+    /// Whether pair `x`, tried `n` times with the fitted reward `r`, is known by (M2), with
+    /// `deficit` filled; latches it when it is.
+    fn known(&mut self, x: usize, n: u32, r: f64) -> bool {
+        if !self.latched[x]
+            && n >= 1
+            && (r != 0.0 || self.a0() * f64::from(n) - self.deficit[x] >= self.needed)
+        {
             self.latched[x] = true;
         }
         self.latched[x]
@@ -255,6 +271,7 @@ impl DeconvModel {
             v: vec![p.q0; num_states],
             tries: vec![0; pairs],
             next: vec![Vec::new(); pairs],
+            significance: cfg.settings.significance,
             deconv: ValueDeconvolver::new(cfg, num_states, num_actions),
             optimism_visits,
             probes,
@@ -268,7 +285,12 @@ impl DeconvModel {
     /// The same model with exploration from confidence (M2) at z standard errors
     /// (z > 0; the fixed count of `new` is then unused).
     pub fn with_confidence(mut self, z: f64) -> Self {
-        let mut c = Confidence::new(z, self.tries.len());
+        // The reward fit's universal threshold over m = |X| (1 + 1/|A|) features (its pairs
+        // and successor groups at most), as in its lasso.
+        let pairs = self.tries.len();
+        let m = (pairs + pairs / self.q.num_actions().max(1)).max(2) as f64;
+        let detect = self.significance * (2.0 * m.ln()).sqrt();
+        let mut c = Confidence::new(z, detect, pairs);
         c.update(&self.deconv);
         self.confidence = Some(c);
         self
@@ -349,9 +371,10 @@ impl DeconvModel {
             c.fill_deficits();
             // Knownness changes only for pairs tried and not yet known.
             let (tries, Dirty { bits, pending, .. }) = (&self.tries, &mut self.dirty);
+            let deconv = &self.deconv;
             pending.retain(|&x| {
                 let x = x as usize;
-                if c.known(x, tries[x]) {
+                if c.known(x, tries[x], deconv.reward(x)) {
                     bits[x / a_n / 64] |= 1 << (x / a_n % 64);
                     false
                 } else {
@@ -461,6 +484,12 @@ impl Learner for DeconvModel {
         let mut d = self.deconv.diagnostics();
         d.figures.push(("learner/value_max", max_of(&self.v)));
         d.figures.push(("learner/probes", self.probes_taken as f64));
+        let known = (0..self.tries.len()).filter(|&x| self.known(x)).count();
+        d.figures.push(("learner/known_pairs", known as f64));
+        if let Some(c) = self.confidence.as_ref() {
+            d.figures.push(("learner/info_needed", c.needed));
+            d.figures.push(("learner/info_per_visit", c.a0()));
+        }
         d
     }
 
@@ -590,6 +619,38 @@ mod tests {
         let l = run(2.6);
         assert!(!l.known(1));
         assert_eq!(l.q(0, 1), 100.0);
+    }
+
+    /// (M2)'s two other parts. A reward the fit has found makes its pair known at once:
+    /// pair 0 delivers 4 at every step (told p̂ = (½, ½)), so before the first fit
+    /// σ̂² = Σ r² / t = 16 and v_max = 4, and at z = 100 I* = 100² is out of reach of its
+    /// I(0) = 1.75 after four visits; but the refit at t = 4 finds
+    /// R̂(0) = Σψr / Σψ² = 14 / 3.25 ≠ 0, and pair 0 is known from then on. The fit's
+    /// threshold enters I*: with κ = 1, one state and two actions (m = 2 + 2/2 = 3
+    /// features), I* = (√(2 ln 3) + z)² σ̂² / v_max² = (√(2 ln 3) + 2)² after the first
+    /// step at z = 2.
+    #[test]
+    fn a_found_reward_is_known_and_the_fit_threshold_raises_the_need() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 100.0 };
+        let mut cfg = tiny_config();
+        cfg.settings.refit_every = 4;
+        let mut l = DeconvModel::new(p, cfg.clone(), 1000, Probes::OFF, 1, 2).with_confidence(100.0);
+        for t in 0..3 {
+            l.observe(&exp(t, 0, 0, 0, 4.0));
+            assert!(!l.known(0) && l.q(0, 0) == 100.0, "t {t}");
+        }
+        assert!((l.information_needed().unwrap() - 1e4).abs() < 1e-6);
+        l.observe(&exp(3, 0, 0, 0, 4.0));
+        assert!((l.deconvolver().reward(0) - 14.0 / 3.25).abs() < 1e-9);
+        assert!((l.information(0).unwrap() - 1.75).abs() < 1e-12);
+        assert!(l.information(0).unwrap() < l.information_needed().unwrap());
+        assert!(l.known(0) && !l.known(1) && l.q(0, 0) < 100.0);
+
+        cfg.settings.significance = 1.0;
+        let mut l = DeconvModel::new(p, cfg, 1000, Probes::OFF, 1, 2).with_confidence(2.0);
+        l.observe(&exp(0, 0, 0, 0, 4.0));
+        let t = (2.0 * 3.0_f64.ln()).sqrt() + 2.0;
+        assert!((l.information_needed().unwrap() - t * t).abs() < 1e-12);
     }
 
     /// A pair never tried keeps q0 (optimism) and the greedy action goes there.

@@ -1,4 +1,4 @@
-//! Kernel-credit MMQ (`mmq-kernel`, issue 8): the paper's own next step — "a kernel
+//! Kernel-credit MMQ (`mmq-kernel`): the paper's own next step — "a kernel
 //! that gives less credit to delay estimates far from λ̂*" — together with the two
 //! bootstraps the issue names (each model's own, or the leading model's). Algorithm 1
 //! with two changes:
