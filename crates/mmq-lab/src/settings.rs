@@ -124,11 +124,6 @@ pub fn from_flat_layout(learner: &toml::Table) -> Option<toml::Table> {
             out.insert(k.clone(), v.clone());
         }
     }
-    // Recordings from before exploration from confidence ran the fixed visit count, which
-    // is now `optimism_confidence = 0`.
-    if kind == LearnerKind::DeconvModel && !out.contains_key("optimism_confidence") {
-        out.insert("optimism_confidence".into(), toml::Value::Float(0.0));
-    }
     Some(out)
 }
 
@@ -231,25 +226,5 @@ mod tests {
         assert!(e.starts_with("`learner`: unknown learner `sarsa`"), "{e}");
         let e = learner("q", params, &[("max_delay", Some(v(4)))]).unwrap_err().to_string();
         assert!(e.starts_with("`max_delay`: learner `q` has no such setting"), "{e}");
-    }
-
-    /// An older recording of `deconv-model` in the flat layout ran the fixed visit count,
-    /// before exploration from confidence existed: read back, it runs the same rule.
-    #[test]
-    fn an_older_deconv_model_recording_keeps_the_fixed_count() {
-        let text = "kind = \"deconv-model\"\nlambda_hat = 13\nmax_delay = 50\n[beyond]\noptimism_visits = 10\ntrace_decay = 0.9\n";
-        let flat: toml::Table = toml::from_str(text).unwrap();
-        let own = from_flat_layout(&flat).unwrap();
-        assert_eq!(own.get("optimism_confidence"), Some(&v(0.0)));
-        assert_eq!(own.get("optimism_visits"), Some(&v(10)));
-        assert!(!own.contains_key("trace_decay") && !own.contains_key("lambda_hat"));
-        let mut with_params = own.clone();
-        with_params.insert("params".into(), toml::Value::try_from(Params::default()).unwrap());
-        let spec: LearnerSpec = toml::Value::Table(with_params).try_into().unwrap();
-        let mmq_learn::LearnerSettings::DeconvModel(m) = spec.settings else { panic!("{spec:?}") };
-        assert_eq!(m.optimism_confidence, 0.0);
-        // A recording that names the rule keeps it.
-        let named: toml::Table = toml::from_str(&format!("{text}optimism_confidence = 2.0\n")).unwrap();
-        assert_eq!(from_flat_layout(&named).unwrap().get("optimism_confidence"), Some(&v(2.0)));
     }
 }

@@ -9,7 +9,9 @@
 //! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) max_a' Q(s', a')  otherwise          (M1)
 //! ```
 //!
-//! *Exploration from confidence* (the default, z = `optimism_confidence` = 2). A pair
+//! The default is a fixed count: a pair is known once N(x) ≥ m = `optimism_visits`.
+//!
+//! *Exploration from confidence* (z = `optimism_confidence` > 0; off by default). A pair
 //! stays optimistic (R-max style, on top of ε-greedy) until the reward fit has settled
 //! its reward: the fit has found one there, or it would find one as large as the largest
 //! in the world, with z standard errors to spare beyond its own significance threshold.
@@ -40,9 +42,6 @@
 //! refit (before the first, σ̂² = Σ r² / t, updated every step); I(x) is updated every
 //! step. Once known, a pair stays known: a rise of σ̂ as the goal is found more often
 //! does not send the agent back to pairs it has already learned.
-//!
-//! `optimism_confidence = 0` turns the rule off for a fixed count: a pair is known once
-//! N(x) ≥ m = `optimism_visits`.
 //!
 //! *Delay probes.* A policy that has learned to avoid costs also stops producing the
 //! rewards that date the delay best: its goal rewards come at a near-constant period, and

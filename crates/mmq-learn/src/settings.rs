@@ -295,7 +295,7 @@ impl Default for DeconvQSettings {
 pub struct ExploreSettings {
     /// A pair tried fewer times than this keeps its optimistic value q0 (R-max style
     /// exploration); 0 plans with every pair's estimate at once. Default 10. Used by
-    /// `deconv-model-time`, and by `deconv-model` only with `optimism_confidence = 0`.
+    /// `deconv-model-time`, and by `deconv-model` unless `optimism_confidence` > 0.
     pub optimism_visits: u32,
     /// Probability per step, in [0, 1], that a *delay probe* falls due while the median
     /// of the delay estimate has a standard error above `probe_precision`; a due probe is
@@ -335,7 +335,7 @@ impl ExploreSettings {
 }
 
 /// Settings of `deconv-model`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct DeconvModelSettings {
     /// The deconvolution.
@@ -347,24 +347,11 @@ pub struct DeconvModelSettings {
     /// z ≥ 0, exploration from confidence: a pair keeps its optimistic value q0 (R-max
     /// style) until the reward fit has found a reward there, or would find one as large as
     /// the largest found with z standard errors to spare beyond its significance threshold
-    /// ([`crate::deconv_model`], (M2)). Default 2; 0 turns the rule off for the fixed
-    /// count `optimism_visits` (docs/algorithms/deconv-model.md, "Exploration from
-    /// confidence").
+    /// ([`crate::deconv_model`], (M2)); 2 is the measured setting. Default 0 (off): the
+    /// fixed count `optimism_visits` (docs/algorithms/deconv-model.md, "Exploration from
+    /// confidence", says what each costs).
     pub optimism_confidence: f64,
 }
-
-impl Default for DeconvModelSettings {
-    fn default() -> Self {
-        Self {
-            deconv: DeconvSettings::default(),
-            explore: ExploreSettings::default(),
-            optimism_confidence: DEFAULT_OPTIMISM_CONFIDENCE,
-        }
-    }
-}
-
-/// The default z of `deconv-model`'s exploration from confidence.
-pub const DEFAULT_OPTIMISM_CONFIDENCE: f64 = 2.0;
 
 /// Settings of `deconv-model-time`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
