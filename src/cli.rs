@@ -119,6 +119,12 @@ pub struct RunArgs {
     /// λ̂ of the fixed-delay learner (default 13). Only for `fixed`.
     #[arg(long)]
     pub lambda_hat: Option<usize>,
+    /// Any other setting of the learner, as KEY=VALUE (repeatable), e.g.
+    /// --set optimism_confidence=2 --set told_delay=poisson:13. The value is read as TOML
+    /// (a number, true/false), else as text. A setting the learner lacks is refused by
+    /// name; each learner's settings are in its page of docs/algorithms/.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Learning rate α ∈ [0, 1].
     #[arg(long, default_value_t = 0.1, allow_negative_numbers = true)]
     pub alpha: f64,

@@ -211,6 +211,38 @@ mod run {
         assert!(std::fs::read_to_string(d.path().join("config.toml")).unwrap().contains("time_bin_s = 0.1"));
     }
 
+    /// `--set KEY=VALUE` lands in the learner's settings: a number and a text, read back
+    /// from the run's config.toml and in effect (the rule's I* is reported).
+    #[test]
+    fn set_gives_any_setting_of_the_learner() {
+        let d = tempfile::tempdir().unwrap();
+        let out = d.path().to_string_lossy().into_owned();
+        let o = mmq(&[
+            "run",
+            "-q",
+            "--learner",
+            "deconv-model",
+            "--steps",
+            "300",
+            "--no-baseline",
+            "--out",
+            &out,
+            "--set",
+            "optimism_confidence=2",
+            "--set",
+            "told_delay=poisson:13",
+        ]);
+        let (_, err) = text(&o);
+        assert!(o.status.success(), "{err}");
+        let cfg = std::fs::read_to_string(d.path().join("config.toml")).unwrap();
+        assert!(
+            cfg.contains("optimism_confidence = 2.0") && cfg.contains("told_delay = \"poisson:13\""),
+            "{cfg}"
+        );
+        let s = read_json(&d.path().join("summary.json"));
+        assert!(s["seeds"][0]["learner/info_needed"].as_f64().is_some(), "{s}");
+    }
+
     /// Same seeds ⇒ identical summaries on 1 and 2 threads (wall time aside).
     #[test]
     fn thread_count_does_not_change_results() {
