@@ -18,8 +18,9 @@ pub struct Cli {
     pub command: Command,
 }
 
-/// The subcommands.
+/// The subcommands (parsed once per process, so the size of the largest does not matter).
 #[derive(Debug, Subcommand)]
+#[allow(clippy::large_enum_variant)]
 pub enum Command {
     /// Run one learner on one world for several seeds; writes config, summary, metrics
     /// and Q-tables into --out.
