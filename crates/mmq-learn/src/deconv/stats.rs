@@ -53,8 +53,8 @@ impl LagStats {
     }
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without
-    /// the co-occurrence counts (those grow with the run: 16 bytes per distinct
-    /// (pair, pair, lag) triple with its index, at most K + 1 new ones per step, and 16
+    /// the co-occurrence counts (those grow with the run: 24 bytes per distinct
+    /// (pair, pair, lag) triple in both orders, at most K + 1 new ones per step, and 16
     /// per pair).
     pub(crate) fn bytes(pairs: usize, max_delay: usize) -> u128 {
         let (p, k) = (pairs as u128, max_delay as u128 + 1);
