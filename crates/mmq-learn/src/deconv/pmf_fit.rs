@@ -57,7 +57,8 @@ fn add_system(total: Option<System>, system: System) -> Option<System> {
 /// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
 pub(crate) fn project_simplex(v: &mut [f64]) {
     let mut u: Vec<f64> = v.to_vec();
-    u.sort_by(|a, b| b.total_cmp(a));
+    // Values equal under the total order are the same bits: any sort gives this array.
+    u.sort_unstable_by(|a, b| b.total_cmp(a));
     let mut acc = 0.0;
     let mut theta = 0.0;
     for (i, &x) in u.iter().enumerate() {
@@ -300,8 +301,10 @@ impl Deconvolver {
         }
     }
 
-    /// The non-zero predictions y_t = R̂(x_t) over the stored history.
+    /// The non-zero predictions y_t = R̂(x_t) over the stored history, and the steps whose
+    /// last K + 1 hold one.
     fn predictions(&self, r: &[f64]) -> Predictions {
+        let k_n = self.cfg.settings.max_delay + 1;
         let mut pred = Predictions::default();
         for (t, &i) in self.hist_x.iter().enumerate() {
             let y = r[i as usize];
@@ -309,6 +312,28 @@ impl Deconvolver {
                 pred.steps.push(t as u32);
                 pred.y.push(y);
             }
+        }
+        // The predictions of the last K + 1 steps of t are steps[lo..hi] (oldest first).
+        let steps = &pred.steps;
+        let (mut lo, mut hi, mut t) = (0, 0, 0);
+        while t < self.hist_r.len() {
+            while hi < steps.len() && steps[hi] as usize <= t {
+                hi += 1;
+            }
+            while lo < hi && steps[lo] as usize + k_n <= t {
+                lo += 1;
+            }
+            if lo == hi {
+                match steps.get(hi) {
+                    Some(&u) => {
+                        t = u as usize;
+                        continue;
+                    }
+                    None => break,
+                }
+            }
+            pred.windows.push((t as u32, lo as u32, hi as u32));
+            t += 1;
         }
         pred
     }
@@ -326,26 +351,10 @@ impl Deconvolver {
         // The variance factor of each lag.
         let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
         let (steps, ys) = (&pred.steps, &pred.y);
-        // The predictions of the last K + 1 steps are steps[lo..hi] (oldest first); their
-        // lags t − u in `ks`.
-        let (mut lo, mut hi, mut t) = (0, 0, 0);
+        // The lags t − u of the predictions in the window of t.
         let mut ks: Vec<usize> = Vec::with_capacity(k_n);
-        while t < self.hist_r.len() {
-            while hi < steps.len() && steps[hi] as usize <= t {
-                hi += 1;
-            }
-            while lo < hi && steps[lo] as usize + k_n <= t {
-                lo += 1;
-            }
-            if lo == hi {
-                match steps.get(hi) {
-                    Some(&u) => {
-                        t = u as usize;
-                        continue;
-                    }
-                    None => break,
-                }
-            }
+        for &(t, lo, hi) in &pred.windows {
+            let (t, lo, hi) = (t as usize, lo as usize, hi as usize);
             let live = &ys[lo..hi];
             ks.clear();
             let mut v = v0;
@@ -370,7 +379,6 @@ impl Deconvolver {
                     row[k2] += wy * y2;
                 }
             }
-            t += 1;
         }
         (a, c)
     }
@@ -382,6 +390,9 @@ impl Deconvolver {
 struct Predictions {
     steps: Vec<u32>,
     y: Vec<f64>,
+    /// Each step t whose last K + 1 hold a prediction, in order, with those predictions'
+    /// range lo..hi in `steps` and `y`: (t, lo, hi).
+    windows: Vec<(u32, u32, u32)>,
 }
 
 #[cfg(test)]
