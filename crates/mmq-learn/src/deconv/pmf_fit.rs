@@ -351,18 +351,19 @@ impl Deconvolver {
         // The variance factor of each lag.
         let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
         let (steps, ys) = (&pred.steps, &pred.y);
-        // The lags t − u of the predictions in the window of t.
-        let mut ks: Vec<usize> = Vec::with_capacity(k_n);
+        // The lags t − u of the predictions in the window of t (at most K + 1 of them).
+        let mut kbuf = vec![0usize; k_n];
         for &(t, lo, hi) in &pred.windows {
             let (t, lo, hi) = (t as usize, lo as usize, hi as usize);
             let live = &ys[lo..hi];
-            ks.clear();
+            let ks = &mut kbuf[..hi - lo];
             let mut v = v0;
-            for (&u, &yu) in steps[lo..hi].iter().zip(live) {
+            for ((kk, &u), &yu) in ks.iter_mut().zip(&steps[lo..hi]).zip(live) {
                 let k = t - u as usize;
                 v += var[k] * yu * yu;
-                ks.push(k);
+                *kk = k;
             }
+            let ks = &*ks;
             let w = 1.0 / v;
             // c never holds −0, so adding the zeros of rt = 0 would change nothing.
             let rt = self.hist_r[t];
