@@ -213,11 +213,20 @@ fn merge_runs(
     let mut counts = Vec::with_capacity(old.len() + new.len());
     let mut a = 0;
     for (&nk, &nc) in new.iter().zip(new_c) {
-        // The old keys below the new one are copied as they are.
-        let below = a + gallop(&old[a..], nk);
-        keys.extend_from_slice(&old[a..below]);
-        counts.extend_from_slice(&old_c[a..below]);
-        a = below;
+        // The old keys below the new one are copied as they are: a few one by one, a
+        // longer stretch found by galloping and copied as a block.
+        let near = (a + 8).min(old.len());
+        while a < near && old[a] < nk {
+            keys.push(old[a]);
+            counts.push(old_c[a]);
+            a += 1;
+        }
+        if a == near {
+            let below = a + gallop(&old[a..], nk);
+            keys.extend_from_slice(&old[a..below]);
+            counts.extend_from_slice(&old_c[a..below]);
+            a = below;
+        }
         let mut run = nc;
         if a < old.len() && old[a] == nk {
             run += old_c[a];
@@ -252,8 +261,9 @@ fn grown_index(old: &[usize], added: &[usize]) -> Vec<usize> {
     ptr
 }
 
-/// Sorts packed keys ascending: least-significant-digit radix sort over the bits any key
-/// sets, in digits of at most 11 bits that do not straddle two fields (a digit every key
+/// Sorts packed keys ascending: least-significant-digit radix sort of the keys with their
+/// three fields packed tight (only the bits any key sets, in the same order: the same
+/// order of keys), in as few digits of at most 12 bits as cover them (a digit every key
 /// shares is skipped); small buffers by comparison.
 fn radix_sort(keys: &mut Vec<u64>) {
     if keys.len() < 1024 {
@@ -261,30 +271,33 @@ fn radix_sort(keys: &mut Vec<u64>) {
         return;
     }
     let or = keys.iter().fold(0u64, |a, &k| a | k);
-    let mut digits: Vec<(u32, u32)> = Vec::new();
-    for (lo, width) in
-        [(0, LAG_BITS), (LAG_BITS, PAIR_BITS), (LAG_BITS + PAIR_BITS, 64 - LAG_BITS - PAIR_BITS)]
-    {
-        let field = (or >> lo) & ((1u64 << width) - 1);
-        let used = 64 - field.leading_zeros();
-        let passes = used.div_ceil(11);
-        let mut s = 0;
+    let width = |x: u64| 64 - x.leading_zeros();
+    let wl = width(or & ((1 << LAG_BITS) - 1));
+    let w2 = width((or >> LAG_BITS) & ((1 << PAIR_BITS) - 1));
+    let w1 = width(or >> (LAG_BITS + PAIR_BITS));
+    let total = wl + w2 + w1;
+    if total == 0 {
+        return;
+    }
+    let tight = |k: u64| {
+        (k & ((1 << wl) - 1))
+            | (((k >> LAG_BITS) & ((1 << w2) - 1)) << wl)
+            | ((k >> (LAG_BITS + PAIR_BITS)) << (wl + w2))
+    };
+    let passes = total.div_ceil(12);
+    let bits = total.div_ceil(passes);
+    let (buckets, mask) = (1usize << bits, (1u64 << bits) - 1);
+    // Every digit's histogram in one read.
+    let mut count = vec![0usize; passes as usize * buckets];
+    for &k in keys.iter() {
+        let t = tight(k);
         for p in 0..passes {
-            let bits = (used - s).div_ceil(passes - p);
-            digits.push((lo + s, bits));
-            s += bits;
+            count[p as usize * buckets + ((t >> (p * bits)) & mask) as usize] += 1;
         }
     }
     let len = keys.len();
     let mut buf = vec![0u64; len];
-    let mut count = Vec::new();
-    for (shift, bits) in digits {
-        let mask = (1u64 << bits) - 1;
-        count.clear();
-        count.resize(1 << bits, 0usize);
-        for &k in keys.iter() {
-            count[((k >> shift) & mask) as usize] += 1;
-        }
+    for (p, count) in count.chunks_exact_mut(buckets).enumerate() {
         if count.contains(&len) {
             continue;
         }
@@ -292,8 +305,9 @@ fn radix_sort(keys: &mut Vec<u64>) {
         for c in count.iter_mut() {
             (*c, acc) = (acc, acc + *c);
         }
+        let shift = p as u32 * bits;
         for &k in keys.iter() {
-            let d = ((k >> shift) & mask) as usize;
+            let d = ((tight(k) >> shift) & mask) as usize;
             buf[count[d]] = k;
             count[d] += 1;
         }
