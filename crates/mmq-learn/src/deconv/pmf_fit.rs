@@ -132,29 +132,49 @@ pub struct MedianSe {
     pub steps: f64,
 }
 
-/// `out` = A v for the row-major square matrix `a`: each entry Σ_j a(i, j) v(j) summed in
-/// j order from −0, as `Iterator::sum` does (the same number bit for bit), four rows at a
-/// time so that their sums overlap instead of waiting on one another.
-pub(crate) fn mat_vec(a: &[f64], v: &[f64], out: &mut [f64]) {
-    let k_n = v.len();
-    debug_assert!(a.len() == k_n * k_n && out.len() == k_n);
-    let mut quads = a.chunks_exact(4 * k_n);
-    let mut outs = out.chunks_exact_mut(4);
-    for (rows, o) in (&mut quads).zip(&mut outs) {
-        let (r0, rest) = rows.split_at(k_n);
-        let (r1, rest) = rest.split_at(k_n);
-        let (r2, r3) = rest.split_at(k_n);
-        let mut s = [-0.0f64; 4];
-        for ((((&x0, &x1), &x2), &x3), &vj) in r0.iter().zip(r1).zip(r2).zip(r3).zip(v) {
-            s[0] += x0 * vj;
-            s[1] += x1 * vj;
-            s[2] += x2 * vj;
-            s[3] += x3 * vj;
+/// A row-major square matrix laid out for [`Panels::mat_vec`]: its rows in groups of
+/// four, each group stored column by column (the four entries of a column together), and
+/// the rows after the last whole group as they are.
+pub(crate) struct Panels {
+    k_n: usize,
+    quads: Vec<f64>,
+    rest: Vec<f64>,
+}
+
+impl Panels {
+    /// The panels of the row-major `k_n`×`k_n` matrix `a`.
+    pub(crate) fn new(a: &[f64], k_n: usize) -> Self {
+        debug_assert_eq!(a.len(), k_n * k_n);
+        let whole = k_n / 4 * 4;
+        let mut quads = Vec::with_capacity(whole * k_n);
+        for q in (0..whole).step_by(4) {
+            for j in 0..k_n {
+                quads.extend((q..q + 4).map(|r| a[r * k_n + j]));
+            }
         }
-        o.copy_from_slice(&s);
+        Self { k_n, quads, rest: a[whole * k_n..].to_vec() }
     }
-    for (row, o) in quads.remainder().chunks_exact(k_n).zip(outs.into_remainder()) {
-        *o = row.iter().zip(v).map(|(x, y)| x * y).sum();
+
+    /// `out` = A v: each entry Σ_j a(i, j) v(j) summed in j order from −0, as
+    /// `Iterator::sum` does (the same number bit for bit), four rows at a time so that
+    /// their sums overlap instead of waiting on one another.
+    pub(crate) fn mat_vec(&self, v: &[f64], out: &mut [f64]) {
+        let k_n = self.k_n;
+        debug_assert!(v.len() == k_n && out.len() == k_n);
+        let mut outs = out.chunks_exact_mut(4);
+        for (panel, o) in self.quads.chunks_exact(4 * k_n).zip(&mut outs) {
+            let mut s = [-0.0f64; 4];
+            for (x, &vj) in panel.chunks_exact(4).zip(v) {
+                s[0] += x[0] * vj;
+                s[1] += x[1] * vj;
+                s[2] += x[2] * vj;
+                s[3] += x[3] * vj;
+            }
+            o.copy_from_slice(&s);
+        }
+        for (row, o) in self.rest.chunks_exact(k_n).zip(outs.into_remainder()) {
+            *o = row.iter().zip(v).map(|(x, y)| x * y).sum();
+        }
     }
 }
 
@@ -162,11 +182,12 @@ pub(crate) fn mat_vec(a: &[f64], v: &[f64], out: &mut [f64]) {
 /// FISTA from `warm`, renormalised to sum to one (`None` when A carries no information).
 pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]) -> Option<Vec<f64>> {
     let k_n = c.len();
+    let a = Panels::new(a, k_n);
     let mut v = vec![1.0; k_n];
     let mut lmax = 0.0;
     for _ in 0..30 {
         let mut w = vec![0.0; k_n];
-        mat_vec(a, &v, &mut w);
+        a.mat_vec(&v, &mut w);
         let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
         if norm == 0.0 || !norm.is_finite() {
             return None;
@@ -182,7 +203,7 @@ pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]
     let mut next = vec![0.0; k_n];
     let mut az = vec![0.0; k_n];
     for _ in 0..QP_ITERS {
-        mat_vec(a, &z, &mut az);
+        a.mat_vec(&z, &mut az);
         for i in 0..k_n {
             let grad: f64 = az[i] - c[i] + nu * (z[i] - uni) + lam[i];
             next[i] = z[i] - step * grad;
@@ -494,7 +515,7 @@ mod tests {
             let a: Vec<f64> = (0..k_n * k_n).map(|_| rng.random_range(-1.0..1.0)).collect();
             let v: Vec<f64> = (0..k_n).map(|_| rng.random_range(-1.0..1.0)).collect();
             let mut out = vec![0.0; k_n];
-            mat_vec(&a, &v, &mut out);
+            Panels::new(&a, k_n).mat_vec(&v, &mut out);
             for i in 0..k_n {
                 let want: f64 = a[i * k_n..(i + 1) * k_n].iter().zip(&v).map(|(x, y)| x * y).sum();
                 assert_eq!(out[i].to_bits(), want.to_bits(), "k_n {k_n}, row {i}");
