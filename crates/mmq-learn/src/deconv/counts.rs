@@ -5,7 +5,7 @@
 //! The list is kept twice, ordered by earlier pair and by later pair, so that one row of
 //! the Gram matrix reads its triples from two contiguous ranges. Memory is 24 bytes per
 //! distinct triple (at most (K + 1) per step, far fewer once the agent repeats itself)
-//! and 16 per pair, independent of the number of pairs the world has.
+//! and 28 per pair, independent of the number of pairs the world has.
 
 use std::sync::Arc;
 
@@ -51,6 +51,9 @@ pub(crate) struct Merged {
     tcounts: Vec<u32>,
     /// The triples with later pair i2 are at tkeys[tptr[i2]..tptr[i2 + 1]].
     tptr: Vec<usize>,
+    /// The triples (i, i, ·) are the `own_len[i]` from keys[own[i]].
+    own: Vec<usize>,
+    own_len: Vec<u32>,
 }
 
 impl Merged {
@@ -66,6 +69,11 @@ impl Merged {
             let (_, i2, j) = unpack(k);
             (i2, j, c)
         })
+    }
+
+    /// The number of triples (earlier `i`, ·, ·).
+    pub(crate) fn len_from(&self, i: usize) -> usize {
+        if i < self.n() { self.fptr[i + 1] - self.fptr[i] } else { 0 }
     }
 
     /// The triples (·, later `i2`, ·), as (earlier pair, lag, count) in key order.
@@ -87,6 +95,13 @@ impl Merged {
             .zip(&self.counts[start..hi])
             .take_while(move |(k, _)| **k <= last)
             .map(|(&k, &c)| (unpack(k).2, c))
+    }
+
+    /// The counts of (`i`, `i`) by lag, as (lag, count) in lag order: [`Self::pair_run`]
+    /// of a pair with itself, found at the merge.
+    pub(crate) fn own_run(&self, i: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
+        let (lo, len) = if i < self.n() { (self.own[i], self.own_len[i] as usize) } else { (0, 0) };
+        self.keys[lo..lo + len].iter().zip(&self.counts[lo..lo + len]).map(|(&k, &c)| (unpack(k).2, c))
     }
 
     /// Every triple, in key order, with its count.
@@ -176,7 +191,15 @@ impl CoCounts {
         );
         let fptr = grown_index(&old.fptr, &add_from);
         let tptr = grown_index(&old.tptr, &add_to);
-        self.merged = Arc::new(Merged { keys, counts, fptr, tkeys, tcounts, tptr });
+        let mut m = Merged { keys, counts, fptr, tkeys, tcounts, tptr, own: Vec::new(), own_len: Vec::new() };
+        for i in 0..n {
+            let (lo, hi) = (m.fptr[i], m.fptr[i + 1]);
+            let start = lo + m.keys[lo..hi].partition_point(|&k| k < key(i, i, 0));
+            let end = start + m.keys[start..hi].partition_point(|&k| k <= key(i, i, (1 << LAG_BITS) - 1));
+            m.own.push(start);
+            m.own_len.push((end - start) as u32);
+        }
+        self.merged = Arc::new(m);
     }
 
     /// The merged triples; pending keys are not included ([`Self::merge`] first).
@@ -194,7 +217,8 @@ impl CoCounts {
         let m = &self.merged;
         (m.keys.capacity() + m.tkeys.capacity()) * 8
             + (m.counts.capacity() + m.tcounts.capacity()) * 4
-            + (m.fptr.capacity() + m.tptr.capacity()) * 8
+            + (m.fptr.capacity() + m.tptr.capacity() + m.own.capacity()) * 8
+            + m.own_len.capacity() * 4
             + self.pending.capacity() * 8
     }
 }
@@ -379,6 +403,8 @@ mod tests {
         assert_eq!(all, vec![((0, 0, 1), 1), ((1, 2, 0), 2), ((1, 2, 3), 2), ((2, 1, 0), 1)]);
         assert_eq!(m.pair_run(1, 2).collect::<Vec<_>>(), vec![(0, 2), (3, 2)]);
         assert_eq!(m.pair_run(2, 2).count(), 0);
+        assert_eq!(m.own_run(2).count(), 0);
+        assert_eq!(m.own_run(0).collect::<Vec<_>>(), vec![(1, 1)]);
         assert_eq!(c.len(), 4);
         // The index: triples by earlier pair, and by later pair in key order.
         assert_eq!(m.triples_from(1).collect::<Vec<_>>(), vec![(2, 0, 2), (2, 3, 2)]);
@@ -442,6 +468,7 @@ mod tests {
                     .collect();
                 assert_eq!(m.triples_from(p).collect::<Vec<_>>(), from);
                 assert_eq!(m.triples_to(p).collect::<Vec<_>>(), to);
+                assert_eq!(m.own_run(p).collect::<Vec<_>>(), m.pair_run(p, p).collect::<Vec<_>>());
             }
         }
     }

@@ -66,7 +66,7 @@ impl Gram {
         let mut diag: Vec<f64> = (0..n)
             .map(|i| {
                 let mut h = 0.0;
-                for (j, c) in merged.pair_run(i, i) {
+                for (j, c) in merged.own_run(i) {
                     if w[j] != 0.0 {
                         h += w[j] * c as f64;
                     }
