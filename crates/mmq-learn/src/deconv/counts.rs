@@ -1,10 +1,11 @@
 //! Sparse lag co-occurrence counts C_j(i, i') = #{t : x_{t−j} = i, x_t = i'}: only the
 //! (pair, pair, lag) triples that occurred are stored, as a sorted list of packed keys
 //! and their counts. A step adds K + 1 keys to a pending buffer; before the counts are
-//! read the buffer is sorted, run-length encoded and merged into the list. Memory is 12
-//! bytes per distinct triple (at most (K + 1) per step, far fewer once the agent repeats
-//! itself), independent of the number of pairs the world has; an index by pair (16 bytes
-//! per pair and 4 per triple) lets a row of the Gram matrix read only its own triples.
+//! read the buffer is sorted (by radix), run-length encoded and merged into the list.
+//! The list is kept twice, ordered by earlier pair and by later pair, so that one row of
+//! the Gram matrix reads its triples from two contiguous ranges. Memory is 24 bytes per
+//! distinct triple (at most (K + 1) per step, far fewer once the agent repeats itself)
+//! and 28 per pair, independent of the number of pairs the world has.
 
 use std::sync::Arc;
 
@@ -35,49 +36,27 @@ pub(crate) fn unpack(k: u64) -> (usize, usize, usize) {
     )
 }
 
-/// The merged triples: their packed keys in key order and their counts, indexed by pair
-/// both ways (the triples of an earlier pair are contiguous; those of a later pair are
-/// listed by position), so that one row of the Gram matrix reads only its own triples.
+/// The merged triples: their packed keys in key order and their counts, and the same
+/// triples keyed (later pair, earlier pair, lag) in that key order, each indexed by its
+/// leading pair (the triples of an earlier pair, and those of a later pair, are
+/// contiguous), so that one row of the Gram matrix reads only its own triples.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Merged {
     keys: Vec<u64>,
     counts: Vec<u32>,
     /// The triples with earlier pair i are at fptr[i]..fptr[i + 1].
     fptr: Vec<usize>,
-    /// The positions of the triples with later pair i, in key order, are
-    /// tpos[tptr[i]..tptr[i + 1]].
+    /// key(i2, i, j) of every triple (i, i2, j), in order, and its count.
+    tkeys: Vec<u64>,
+    tcounts: Vec<u32>,
+    /// The triples with later pair i2 are at tkeys[tptr[i2]..tptr[i2 + 1]].
     tptr: Vec<usize>,
-    tpos: Vec<u32>,
+    /// The triples (i, i, ·) are the `own_len[i]` from keys[own[i]].
+    own: Vec<usize>,
+    own_len: Vec<u32>,
 }
 
 impl Merged {
-    /// The index of `keys` over `n` pairs (more when they hold more).
-    fn new(keys: Vec<u64>, counts: Vec<u32>, n: usize) -> Self {
-        let n = keys.iter().fold(n, |n, &k| {
-            let (i, i2, _) = unpack(k);
-            n.max(i + 1).max(i2 + 1)
-        });
-        let mut fptr = vec![0usize; n + 1];
-        let mut tptr = vec![0usize; n + 1];
-        for &k in &keys {
-            let (i, i2, _) = unpack(k);
-            fptr[i + 1] += 1;
-            tptr[i2 + 1] += 1;
-        }
-        for i in 0..n {
-            fptr[i + 1] += fptr[i];
-            tptr[i + 1] += tptr[i];
-        }
-        let mut fill = tptr.clone();
-        let mut tpos = vec![0u32; keys.len()];
-        for (e, &k) in keys.iter().enumerate() {
-            let i2 = unpack(k).1;
-            tpos[fill[i2]] = e as u32;
-            fill[i2] += 1;
-        }
-        Self { keys, counts, fptr, tptr, tpos }
-    }
-
     /// The pairs indexed.
     pub(crate) fn n(&self) -> usize {
         self.fptr.len().saturating_sub(1)
@@ -92,11 +71,17 @@ impl Merged {
         })
     }
 
+    /// The number of triples (earlier `i`, ·, ·).
+    pub(crate) fn len_from(&self, i: usize) -> usize {
+        if i < self.n() { self.fptr[i + 1] - self.fptr[i] } else { 0 }
+    }
+
     /// The triples (·, later `i2`, ·), as (earlier pair, lag, count) in key order.
     pub(crate) fn triples_to(&self, i2: usize) -> impl Iterator<Item = (usize, usize, u32)> + '_ {
-        self.tpos[self.tptr[i2]..self.tptr[i2 + 1]].iter().map(|&e| {
-            let (i, _, j) = unpack(self.keys[e as usize]);
-            (i, j, self.counts[e as usize])
+        let (lo, hi) = (self.tptr[i2], self.tptr[i2 + 1]);
+        self.tkeys[lo..hi].iter().zip(&self.tcounts[lo..hi]).map(|(&k, &c)| {
+            let (_, i, j) = unpack(k);
+            (i, j, c)
         })
     }
 
@@ -110,6 +95,13 @@ impl Merged {
             .zip(&self.counts[start..hi])
             .take_while(move |(k, _)| **k <= last)
             .map(|(&k, &c)| (unpack(k).2, c))
+    }
+
+    /// The counts of (`i`, `i`) by lag, as (lag, count) in lag order: [`Self::pair_run`]
+    /// of a pair with itself, found at the merge.
+    pub(crate) fn own_run(&self, i: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
+        let (lo, len) = if i < self.n() { (self.own[i], self.own_len[i] as usize) } else { (0, 0) };
+        self.keys[lo..lo + len].iter().zip(&self.counts[lo..lo + len]).map(|(&k, &c)| (unpack(k).2, c))
     }
 
     /// Every triple, in key order, with its count.
@@ -137,46 +129,77 @@ impl CoCounts {
         }
     }
 
-    /// Merges the pending keys into the sorted list and indexes it over `n` pairs (at
-    /// least every pair in it; the counts do not depend on when).
+    /// Merges the pending keys into the sorted lists and indexes them over `n` pairs (at
+    /// least every pair in them; the counts do not depend on when).
     pub(crate) fn merge(&mut self, n: usize) {
         if self.pending.is_empty() && self.merged.n() == n {
             return;
         }
         let mut new = std::mem::take(&mut self.pending);
-        new.sort_unstable();
-        let old = std::mem::take(&mut self.merged);
-        let (old_k, old_c) = (&old.keys, &old.counts);
-        let mut keys = Vec::with_capacity(old_k.len() + new.len());
-        let mut counts = Vec::with_capacity(old_k.len() + new.len());
-        let (mut a, mut b) = (0, 0);
-        while b < new.len() {
-            // The next run of equal new keys; the old keys below it are copied as they are.
-            let nk = new[b];
-            let mut run = 0u32;
-            while b < new.len() && new[b] == nk {
-                run += 1;
-                b += 1;
+        radix_sort(&mut new);
+        // The distinct new keys and how often each came.
+        let (mut fresh, mut runs) = (Vec::new(), Vec::new());
+        for &k in &new {
+            if fresh.last() == Some(&k) {
+                *runs.last_mut().expect("a run per key") += 1;
+            } else {
+                fresh.push(k);
+                runs.push(1u32);
             }
-            let below = a + gallop(&old_k[a..], nk);
-            keys.extend_from_slice(&old_k[a..below]);
-            counts.extend_from_slice(&old_c[a..below]);
-            a = below;
-            if a < old_k.len() && old_k[a] == nk {
-                run += old_c[a];
-                a += 1;
-            }
-            keys.push(nk);
-            counts.push(run);
         }
-        keys.extend_from_slice(&old_k[a..]);
-        counts.extend_from_slice(&old_c[a..]);
-        drop(old);
-        keys.shrink_to_fit();
-        counts.shrink_to_fit();
-        self.merged = Arc::new(Merged::new(keys, counts, n));
         new.clear();
         self.pending = new;
+        // The old lists are given up one order at a time (when no Gram matrix still reads
+        // them), so that the merge holds at most one order twice.
+        let old = std::mem::take(&mut self.merged);
+        let mut old = Arc::try_unwrap(old).unwrap_or_else(|shared| (*shared).clone());
+        let n = fresh.iter().fold(n.max(old.n()), |n, &k| {
+            let (i, i2, _) = unpack(k);
+            n.max(i + 1).max(i2 + 1)
+        });
+        // Triples not seen before, by earlier and by later pair.
+        let (mut add_from, mut add_to) = (vec![0usize; n], vec![0usize; n]);
+        let (keys, counts) =
+            merge_runs(std::mem::take(&mut old.keys), std::mem::take(&mut old.counts), &fresh, &runs, |k| {
+                let (i, i2, _) = unpack(k);
+                add_from[i] += 1;
+                add_to[i2] += 1;
+            });
+        // The new keys transposed, in their key order: a stable counting sort of the
+        // key-ordered new keys by later pair.
+        let mut at = vec![0usize; n + 1];
+        for &k in &fresh {
+            at[unpack(k).1 + 1] += 1;
+        }
+        for i in 0..n {
+            at[i + 1] += at[i];
+        }
+        let (mut tfresh, mut truns) = (vec![0u64; fresh.len()], vec![0u32; fresh.len()]);
+        for (&k, &c) in fresh.iter().zip(&runs) {
+            let (i, i2, j) = unpack(k);
+            tfresh[at[i2]] = key(i2, i, j);
+            truns[at[i2]] = c;
+            at[i2] += 1;
+        }
+        drop((fresh, runs));
+        let (tkeys, tcounts) = merge_runs(
+            std::mem::take(&mut old.tkeys),
+            std::mem::take(&mut old.tcounts),
+            &tfresh,
+            &truns,
+            |_| {},
+        );
+        let fptr = grown_index(&old.fptr, &add_from);
+        let tptr = grown_index(&old.tptr, &add_to);
+        let mut m = Merged { keys, counts, fptr, tkeys, tcounts, tptr, own: Vec::new(), own_len: Vec::new() };
+        for i in 0..n {
+            let (lo, hi) = (m.fptr[i], m.fptr[i + 1]);
+            let start = lo + m.keys[lo..hi].partition_point(|&k| k < key(i, i, 0));
+            let end = start + m.keys[start..hi].partition_point(|&k| k <= key(i, i, (1 << LAG_BITS) - 1));
+            m.own.push(start);
+            m.own_len.push((end - start) as u32);
+        }
+        self.merged = Arc::new(m);
     }
 
     /// The merged triples; pending keys are not included ([`Self::merge`] first).
@@ -189,14 +212,130 @@ impl CoCounts {
         self.merged.keys.len()
     }
 
-    /// Bytes held (merged, its index and pending, by capacity).
+    /// Bytes held (merged, both orders and their indexes, and pending, by capacity).
     pub(crate) fn bytes(&self) -> usize {
         let m = &self.merged;
-        m.keys.capacity() * 8
-            + m.counts.capacity() * 4
-            + m.tpos.capacity() * 4
-            + (m.fptr.capacity() + m.tptr.capacity()) * 8
+        (m.keys.capacity() + m.tkeys.capacity()) * 8
+            + (m.counts.capacity() + m.tcounts.capacity()) * 4
+            + (m.fptr.capacity() + m.tptr.capacity() + m.own.capacity()) * 8
+            + m.own_len.capacity() * 4
             + self.pending.capacity() * 8
+    }
+}
+
+/// The ascending distinct keys `old` (counts `old_c`) with the ascending distinct keys
+/// `new` (counts `new_c`) added: a key in both gets the sum of its counts. `inserted` is
+/// told each key of `new` that was not in `old`.
+fn merge_runs(
+    old: Vec<u64>,
+    old_c: Vec<u32>,
+    new: &[u64],
+    new_c: &[u32],
+    mut inserted: impl FnMut(u64),
+) -> (Vec<u64>, Vec<u32>) {
+    let mut keys = Vec::with_capacity(old.len() + new.len());
+    let mut counts = Vec::with_capacity(old.len() + new.len());
+    let mut a = 0;
+    for (&nk, &nc) in new.iter().zip(new_c) {
+        // The old keys below the new one are copied as they are: a few one by one, a
+        // longer stretch found by galloping and copied as a block.
+        let near = (a + 8).min(old.len());
+        while a < near && old[a] < nk {
+            keys.push(old[a]);
+            counts.push(old_c[a]);
+            a += 1;
+        }
+        if a == near {
+            let below = a + gallop(&old[a..], nk);
+            keys.extend_from_slice(&old[a..below]);
+            counts.extend_from_slice(&old_c[a..below]);
+            a = below;
+        }
+        let mut run = nc;
+        if a < old.len() && old[a] == nk {
+            run += old_c[a];
+            a += 1;
+        } else {
+            inserted(nk);
+        }
+        keys.push(nk);
+        counts.push(run);
+    }
+    keys.extend_from_slice(&old[a..]);
+    counts.extend_from_slice(&old_c[a..]);
+    drop((old, old_c));
+    keys.shrink_to_fit();
+    counts.shrink_to_fit();
+    (keys, counts)
+}
+
+/// The start of each pair's triples (and the end of the last) over `added.len()` pairs,
+/// from those before (`old`, over at most as many pairs) and the number of triples
+/// `added` to each pair.
+fn grown_index(old: &[usize], added: &[usize]) -> Vec<usize> {
+    let n = added.len();
+    let mut ptr = Vec::with_capacity(n + 1);
+    ptr.push(0);
+    let mut acc = 0;
+    for (i, &a) in added.iter().enumerate() {
+        let had = if i + 1 < old.len() { old[i + 1] - old[i] } else { 0 };
+        acc += had + a;
+        ptr.push(acc);
+    }
+    ptr
+}
+
+/// Sorts packed keys ascending: least-significant-digit radix sort of the keys with their
+/// three fields packed tight (only the bits any key sets, in the same order: the same
+/// order of keys), in as few digits of at most 12 bits as cover them (a digit every key
+/// shares is skipped); small buffers by comparison.
+fn radix_sort(keys: &mut Vec<u64>) {
+    if keys.len() < 1024 {
+        keys.sort_unstable();
+        return;
+    }
+    let or = keys.iter().fold(0u64, |a, &k| a | k);
+    let width = |x: u64| 64 - x.leading_zeros();
+    let wl = width(or & ((1 << LAG_BITS) - 1));
+    let w2 = width((or >> LAG_BITS) & ((1 << PAIR_BITS) - 1));
+    let w1 = width(or >> (LAG_BITS + PAIR_BITS));
+    let total = wl + w2 + w1;
+    if total == 0 {
+        return;
+    }
+    let tight = |k: u64| {
+        (k & ((1 << wl) - 1))
+            | (((k >> LAG_BITS) & ((1 << w2) - 1)) << wl)
+            | ((k >> (LAG_BITS + PAIR_BITS)) << (wl + w2))
+    };
+    let passes = total.div_ceil(12);
+    let bits = total.div_ceil(passes);
+    let (buckets, mask) = (1usize << bits, (1u64 << bits) - 1);
+    // Every digit's histogram in one read.
+    let mut count = vec![0usize; passes as usize * buckets];
+    for &k in keys.iter() {
+        let t = tight(k);
+        for p in 0..passes {
+            count[p as usize * buckets + ((t >> (p * bits)) & mask) as usize] += 1;
+        }
+    }
+    let len = keys.len();
+    let mut buf = vec![0u64; len];
+    for (p, count) in count.chunks_exact_mut(buckets).enumerate() {
+        if count.contains(&len) {
+            continue;
+        }
+        let mut acc = 0;
+        for c in count.iter_mut() {
+            (*c, acc) = (acc, acc + *c);
+        }
+        let shift = p as u32 * bits;
+        for &k in keys.iter() {
+            let d = ((tight(k) >> shift) & mask) as usize;
+            buf[count[d]] = k;
+            count[d] += 1;
+        }
+        std::mem::swap(keys, &mut buf);
     }
 }
 
@@ -264,6 +403,8 @@ mod tests {
         assert_eq!(all, vec![((0, 0, 1), 1), ((1, 2, 0), 2), ((1, 2, 3), 2), ((2, 1, 0), 1)]);
         assert_eq!(m.pair_run(1, 2).collect::<Vec<_>>(), vec![(0, 2), (3, 2)]);
         assert_eq!(m.pair_run(2, 2).count(), 0);
+        assert_eq!(m.own_run(2).count(), 0);
+        assert_eq!(m.own_run(0).collect::<Vec<_>>(), vec![(1, 1)]);
         assert_eq!(c.len(), 4);
         // The index: triples by earlier pair, and by later pair in key order.
         assert_eq!(m.triples_from(1).collect::<Vec<_>>(), vec![(2, 0, 2), (2, 3, 2)]);
@@ -271,5 +412,64 @@ mod tests {
         assert_eq!(m.triples_to(2).collect::<Vec<_>>(), vec![(1, 0, 2), (1, 3, 2)]);
         assert_eq!(m.triples_to(1).collect::<Vec<_>>(), vec![(2, 0, 1)]);
         assert_eq!(m.triples_to(0).collect::<Vec<_>>(), vec![(0, 1, 1)]);
+    }
+
+    /// The radix sort agrees with a comparison sort, for keys of small and of large pair
+    /// ids and lags, with repeats.
+    #[test]
+    fn radix_sort_agrees_with_sort_unstable() {
+        let mut rng = mmq_core::seed::rng_from_seed(4);
+        use rand::RngExt;
+        for (n, pairs, lags) in [(10, 5, 3), (5000, 40, 51), (30_000, 9000, 51), (20_000, MAX_PAIRS, 1 << 17)]
+        {
+            let mut keys: Vec<u64> = (0..n)
+                .map(|_| {
+                    key(rng.random_range(0..pairs), rng.random_range(0..pairs), rng.random_range(0..lags))
+                })
+                .collect();
+            keys.extend_from_within(..n / 3);
+            let mut want = keys.clone();
+            want.sort_unstable();
+            radix_sort(&mut keys);
+            assert_eq!(keys, want);
+        }
+    }
+
+    /// Random batches merged one after another, the pairs growing: the triples in both
+    /// orders and by pair equal a count of every key, batch sizes below and above the
+    /// radix sort's cut-off.
+    #[test]
+    fn merged_orders_equal_a_plain_count() {
+        let mut rng = mmq_core::seed::rng_from_seed(9);
+        use rand::RngExt;
+        let mut c = CoCounts::default();
+        let mut all: std::collections::BTreeMap<u64, u32> = std::collections::BTreeMap::new();
+        for (batch, pairs) in [(500, 8), (3000, 20), (10, 20), (0, 25), (6000, 60)] {
+            for _ in 0..batch {
+                let (i, i2, j) =
+                    (rng.random_range(0..pairs), rng.random_range(0..pairs), rng.random_range(0..7));
+                c.add(i, i2, j);
+                *all.entry(key(i, i2, j)).or_default() += 1;
+            }
+            c.merge(pairs);
+            let m = c.merged();
+            assert_eq!(m.n(), pairs);
+            assert_eq!(m.iter().collect::<Vec<_>>(), all.iter().map(|(&k, &n)| (k, n)).collect::<Vec<_>>());
+            for p in 0..pairs {
+                let from: Vec<_> = all
+                    .iter()
+                    .filter(|(k, _)| unpack(**k).0 == p)
+                    .map(|(&k, &n)| (unpack(k).1, unpack(k).2, n))
+                    .collect();
+                let to: Vec<_> = all
+                    .iter()
+                    .filter(|(k, _)| unpack(**k).1 == p)
+                    .map(|(&k, &n)| (unpack(k).0, unpack(k).2, n))
+                    .collect();
+                assert_eq!(m.triples_from(p).collect::<Vec<_>>(), from);
+                assert_eq!(m.triples_to(p).collect::<Vec<_>>(), to);
+                assert_eq!(m.own_run(p).collect::<Vec<_>>(), m.pair_run(p, p).collect::<Vec<_>>());
+            }
+        }
     }
 }

@@ -30,6 +30,8 @@ pub(crate) struct Edge {
 struct Row {
     col: Vec<u32>,
     val: Vec<f64>,
+    /// The largest |entry| (set once the row is complete).
+    max_abs: f64,
 }
 
 impl Row {
@@ -64,7 +66,7 @@ impl Gram {
         let mut diag: Vec<f64> = (0..n)
             .map(|i| {
                 let mut h = 0.0;
-                for (j, c) in merged.pair_run(i, i) {
+                for (j, c) in merged.own_run(i) {
                     if w[j] != 0.0 {
                         h += w[j] * c as f64;
                     }
@@ -94,6 +96,7 @@ impl Gram {
                     r.col.push(j as u32);
                     r.val.push(g[i * n + j]);
                 }
+                r.max_abs = r.val.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
                 OnceCell::from(r)
             })
             .collect();
@@ -121,6 +124,7 @@ impl Gram {
             let mut row = Row {
                 col: Vec::with_capacity(forward.len().max(backward.len())),
                 val: Vec::with_capacity(forward.len().max(backward.len())),
+                max_abs: 0.0,
             };
             let (mut a, mut b) = (0, 0);
             while a < forward.len() || b < backward.len() {
@@ -149,6 +153,7 @@ impl Gram {
                     row.sub(e.v, e.deficit);
                 }
             }
+            row.max_abs = row.val.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
             row
         })
     }
@@ -163,13 +168,14 @@ impl Gram {
         r.col.binary_search(&(j as u32)).map_or(0.0, |p| r.val[p])
     }
 
-    /// y += d · G(i, ·).
+    /// y += d · G(i, ·); returns max_c |G(i, c)|.
     #[inline]
-    pub(crate) fn add_row(&self, i: usize, d: f64, y: &mut [f64]) {
+    pub(crate) fn add_row(&self, i: usize, d: f64, y: &mut [f64]) -> f64 {
         let r = self.row(i);
         for (&c, &v) in r.col.iter().zip(&r.val) {
             y[c as usize] += v * d;
         }
+        r.max_abs
     }
 
     /// G x for an `x` that is zero outside `support` (ascending): each entry

@@ -254,8 +254,8 @@ impl Deconvolver {
     }
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without the
-    /// co-occurrence counts, which grow with the run (16 bytes per distinct (pair, pair,
-    /// lag) triple seen with its index, at most K + 1 new ones per step, and 16 per pair;
+    /// co-occurrence counts, which grow with the run (24 bytes per distinct (pair, pair,
+    /// lag) triple seen, in both orders, at most K + 1 new ones per step, and 28 per pair;
     /// [`Self::count_bytes`]).
     pub fn stats_bytes(pairs: usize, max_delay: usize) -> u128 {
         LagStats::bytes(pairs, max_delay)

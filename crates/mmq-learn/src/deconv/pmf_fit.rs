@@ -57,7 +57,8 @@ fn add_system(total: Option<System>, system: System) -> Option<System> {
 /// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
 pub(crate) fn project_simplex(v: &mut [f64]) {
     let mut u: Vec<f64> = v.to_vec();
-    u.sort_by(|a, b| b.total_cmp(a));
+    // Values equal under the total order are the same bits: any sort gives this array.
+    u.sort_unstable_by(|a, b| b.total_cmp(a));
     let mut acc = 0.0;
     let mut theta = 0.0;
     for (i, &x) in u.iter().enumerate() {
@@ -131,29 +132,49 @@ pub struct MedianSe {
     pub steps: f64,
 }
 
-/// `out` = A v for the row-major square matrix `a`: each entry Σ_j a(i, j) v(j) summed in
-/// j order from −0, as `Iterator::sum` does (the same number bit for bit), four rows at a
-/// time so that their sums overlap instead of waiting on one another.
-pub(crate) fn mat_vec(a: &[f64], v: &[f64], out: &mut [f64]) {
-    let k_n = v.len();
-    debug_assert!(a.len() == k_n * k_n && out.len() == k_n);
-    let mut quads = a.chunks_exact(4 * k_n);
-    let mut outs = out.chunks_exact_mut(4);
-    for (rows, o) in (&mut quads).zip(&mut outs) {
-        let (r0, rest) = rows.split_at(k_n);
-        let (r1, rest) = rest.split_at(k_n);
-        let (r2, r3) = rest.split_at(k_n);
-        let mut s = [-0.0f64; 4];
-        for ((((&x0, &x1), &x2), &x3), &vj) in r0.iter().zip(r1).zip(r2).zip(r3).zip(v) {
-            s[0] += x0 * vj;
-            s[1] += x1 * vj;
-            s[2] += x2 * vj;
-            s[3] += x3 * vj;
+/// A row-major square matrix laid out for [`Panels::mat_vec`]: its rows in groups of
+/// four, each group stored column by column (the four entries of a column together), and
+/// the rows after the last whole group as they are.
+pub(crate) struct Panels {
+    k_n: usize,
+    quads: Vec<f64>,
+    rest: Vec<f64>,
+}
+
+impl Panels {
+    /// The panels of the row-major `k_n`×`k_n` matrix `a`.
+    pub(crate) fn new(a: &[f64], k_n: usize) -> Self {
+        debug_assert_eq!(a.len(), k_n * k_n);
+        let whole = k_n / 4 * 4;
+        let mut quads = Vec::with_capacity(whole * k_n);
+        for q in (0..whole).step_by(4) {
+            for j in 0..k_n {
+                quads.extend((q..q + 4).map(|r| a[r * k_n + j]));
+            }
         }
-        o.copy_from_slice(&s);
+        Self { k_n, quads, rest: a[whole * k_n..].to_vec() }
     }
-    for (row, o) in quads.remainder().chunks_exact(k_n).zip(outs.into_remainder()) {
-        *o = row.iter().zip(v).map(|(x, y)| x * y).sum();
+
+    /// `out` = A v: each entry Σ_j a(i, j) v(j) summed in j order from −0, as
+    /// `Iterator::sum` does (the same number bit for bit), four rows at a time so that
+    /// their sums overlap instead of waiting on one another.
+    pub(crate) fn mat_vec(&self, v: &[f64], out: &mut [f64]) {
+        let k_n = self.k_n;
+        debug_assert!(v.len() == k_n && out.len() == k_n);
+        let mut outs = out.chunks_exact_mut(4);
+        for (panel, o) in self.quads.chunks_exact(4 * k_n).zip(&mut outs) {
+            let mut s = [-0.0f64; 4];
+            for (x, &vj) in panel.chunks_exact(4).zip(v) {
+                s[0] += x[0] * vj;
+                s[1] += x[1] * vj;
+                s[2] += x[2] * vj;
+                s[3] += x[3] * vj;
+            }
+            o.copy_from_slice(&s);
+        }
+        for (row, o) in self.rest.chunks_exact(k_n).zip(outs.into_remainder()) {
+            *o = row.iter().zip(v).map(|(x, y)| x * y).sum();
+        }
     }
 }
 
@@ -161,11 +182,12 @@ pub(crate) fn mat_vec(a: &[f64], v: &[f64], out: &mut [f64]) {
 /// FISTA from `warm`, renormalised to sum to one (`None` when A carries no information).
 pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]) -> Option<Vec<f64>> {
     let k_n = c.len();
+    let a = Panels::new(a, k_n);
     let mut v = vec![1.0; k_n];
     let mut lmax = 0.0;
     for _ in 0..30 {
         let mut w = vec![0.0; k_n];
-        mat_vec(a, &v, &mut w);
+        a.mat_vec(&v, &mut w);
         let norm = w.iter().map(|x| x * x).sum::<f64>().sqrt();
         if norm == 0.0 || !norm.is_finite() {
             return None;
@@ -181,7 +203,7 @@ pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]
     let mut next = vec![0.0; k_n];
     let mut az = vec![0.0; k_n];
     for _ in 0..QP_ITERS {
-        mat_vec(a, &z, &mut az);
+        a.mat_vec(&z, &mut az);
         for i in 0..k_n {
             let grad: f64 = az[i] - c[i] + nu * (z[i] - uni) + lam[i];
             next[i] = z[i] - step * grad;
@@ -300,8 +322,10 @@ impl Deconvolver {
         }
     }
 
-    /// The non-zero predictions y_t = R̂(x_t) over the stored history.
+    /// The non-zero predictions y_t = R̂(x_t) over the stored history, and the steps whose
+    /// last K + 1 hold one.
     fn predictions(&self, r: &[f64]) -> Predictions {
+        let k_n = self.cfg.settings.max_delay + 1;
         let mut pred = Predictions::default();
         for (t, &i) in self.hist_x.iter().enumerate() {
             let y = r[i as usize];
@@ -309,6 +333,28 @@ impl Deconvolver {
                 pred.steps.push(t as u32);
                 pred.y.push(y);
             }
+        }
+        // The predictions of the last K + 1 steps of t are steps[lo..hi] (oldest first).
+        let steps = &pred.steps;
+        let (mut lo, mut hi, mut t) = (0, 0, 0);
+        while t < self.hist_r.len() {
+            while hi < steps.len() && steps[hi] as usize <= t {
+                hi += 1;
+            }
+            while lo < hi && steps[lo] as usize + k_n <= t {
+                lo += 1;
+            }
+            if lo == hi {
+                match steps.get(hi) {
+                    Some(&u) => {
+                        t = u as usize;
+                        continue;
+                    }
+                    None => break,
+                }
+            }
+            pred.windows.push((t as u32, lo as u32, hi as u32));
+            t += 1;
         }
         pred
     }
@@ -326,34 +372,19 @@ impl Deconvolver {
         // The variance factor of each lag.
         let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
         let (steps, ys) = (&pred.steps, &pred.y);
-        // The predictions of the last K + 1 steps are steps[lo..hi] (oldest first); their
-        // lags t − u in `ks`.
-        let (mut lo, mut hi, mut t) = (0, 0, 0);
-        let mut ks: Vec<usize> = Vec::with_capacity(k_n);
-        while t < self.hist_r.len() {
-            while hi < steps.len() && steps[hi] as usize <= t {
-                hi += 1;
-            }
-            while lo < hi && steps[lo] as usize + k_n <= t {
-                lo += 1;
-            }
-            if lo == hi {
-                match steps.get(hi) {
-                    Some(&u) => {
-                        t = u as usize;
-                        continue;
-                    }
-                    None => break,
-                }
-            }
+        // The lags t − u of the predictions in the window of t (at most K + 1 of them).
+        let mut kbuf = vec![0usize; k_n];
+        for &(t, lo, hi) in &pred.windows {
+            let (t, lo, hi) = (t as usize, lo as usize, hi as usize);
             let live = &ys[lo..hi];
-            ks.clear();
+            let ks = &mut kbuf[..hi - lo];
             let mut v = v0;
-            for (&u, &yu) in steps[lo..hi].iter().zip(live) {
+            for ((kk, &u), &yu) in ks.iter_mut().zip(&steps[lo..hi]).zip(live) {
                 let k = t - u as usize;
                 v += var[k] * yu * yu;
-                ks.push(k);
+                *kk = k;
             }
+            let ks = &*ks;
             let w = 1.0 / v;
             // c never holds −0, so adding the zeros of rt = 0 would change nothing.
             let rt = self.hist_r[t];
@@ -370,7 +401,6 @@ impl Deconvolver {
                     row[k2] += wy * y2;
                 }
             }
-            t += 1;
         }
         (a, c)
     }
@@ -382,6 +412,9 @@ impl Deconvolver {
 struct Predictions {
     steps: Vec<u32>,
     y: Vec<f64>,
+    /// Each step t whose last K + 1 hold a prediction, in order, with those predictions'
+    /// range lo..hi in `steps` and `y`: (t, lo, hi).
+    windows: Vec<(u32, u32, u32)>,
 }
 
 #[cfg(test)]
@@ -482,7 +515,7 @@ mod tests {
             let a: Vec<f64> = (0..k_n * k_n).map(|_| rng.random_range(-1.0..1.0)).collect();
             let v: Vec<f64> = (0..k_n).map(|_| rng.random_range(-1.0..1.0)).collect();
             let mut out = vec![0.0; k_n];
-            mat_vec(&a, &v, &mut out);
+            Panels::new(&a, k_n).mat_vec(&v, &mut out);
             for i in 0..k_n {
                 let want: f64 = a[i * k_n..(i + 1) * k_n].iter().zip(&v).map(|(x, y)| x * y).sum();
                 assert_eq!(out[i].to_bits(), want.to_bits(), "k_n {k_n}, row {i}");

@@ -53,8 +53,8 @@ impl LagStats {
     }
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without
-    /// the co-occurrence counts (those grow with the run: 16 bytes per distinct
-    /// (pair, pair, lag) triple with its index, at most K + 1 new ones per step, and 16
+    /// the co-occurrence counts (those grow with the run: 24 bytes per distinct
+    /// (pair, pair, lag) triple in both orders, at most K + 1 new ones per step, and 28
     /// per pair).
     pub(crate) fn bytes(pairs: usize, max_delay: usize) -> u128 {
         let (p, k) = (pairs as u128, max_delay as u128 + 1);
@@ -175,7 +175,7 @@ impl LagStats {
         (0..self.n()).map(|i| (0..k_n).map(|k| p[k] * self.b[i * k_n + k]).sum()).collect()
     }
 
-    /// q_j = Rᵀ C_j R over the compact pairs `support` (those with R ≠ 0), j = 0..=K:
+    /// q_j = Rᵀ C_j R over the compact pairs `support` (exactly those with R ≠ 0), j = 0..=K:
     /// for each j, Σ over i in `support` of R(i) Σ_{i'} C_j(i, i') R(i'), in that order.
     pub(crate) fn lag_products(&self, support: &[usize], r: &[f64]) -> Vec<f64> {
         let counts = self.merged();
@@ -183,9 +183,21 @@ impl LagStats {
         let mut inner = vec![0.0; self.k_n];
         for &i in support {
             inner.iter_mut().for_each(|x| *x = 0.0);
-            for &i2 in support {
-                for (j, c) in counts.pair_run(i, i2) {
-                    inner[j] += c as f64 * r[i2];
+            // The triples (i, i2, ·) with i2 in the support, in (i2, lag) order either way:
+            // looked up pair by pair, or, when that takes more reads, all of i's triples
+            // read in order and those outside the support passed over.
+            if support.len() * 16 < counts.len_from(i) {
+                for &i2 in support {
+                    for (j, c) in counts.pair_run(i, i2) {
+                        inner[j] += c as f64 * r[i2];
+                    }
+                }
+            } else {
+                for (i2, j, c) in counts.triples_from(i) {
+                    let y = r[i2];
+                    if y != 0.0 {
+                        inner[j] += c as f64 * y;
+                    }
                 }
             }
             for (qj, s) in q.iter_mut().zip(&inner) {
