@@ -262,7 +262,7 @@ impl DeconvSettings {
     /// Table entries of a deconvolving learner over `pairs` state-action pairs: Q, R̂ and
     /// the lagged reward sums of every pair (worst case: all pairs visited), once per
     /// reward value when decoding (worst case: MAX_VALUES of them); the sparse
-    /// co-occurrence counts grow with the run instead (at most 16 bytes × (K + 1) per
+    /// co-occurrence counts grow with the run instead (at most 24 bytes × (K + 1) per
     /// step, docs/performance.md).
     fn table_entries(&self, pairs: u128) -> u128 {
         let copies = if self.decode_values { crate::decode::MAX_VALUES as u128 } else { 1 };
