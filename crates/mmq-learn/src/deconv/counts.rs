@@ -1,8 +1,7 @@
 //! Sparse lag co-occurrence counts C_j(i, i') = #{t : x_{t−j} = i, x_t = i'}: only the
 //! (pair, pair, lag) triples that occurred are stored, as a sorted list of packed keys
 //! and their counts. A step adds K + 1 keys to a pending buffer; before the counts are
-//! read the buffer is sorted (by radix), run-length encoded and merged into the list in
-//! place.
+//! read the buffer is sorted (by radix), run-length encoded and merged into the list.
 //! The list is kept twice, ordered by earlier pair and by later pair, so that one row of
 //! the Gram matrix reads its triples from two contiguous ranges. Memory is 24 bytes per
 //! distinct triple (at most (K + 1) per step, far fewer once the agent repeats itself)
@@ -150,8 +149,8 @@ impl CoCounts {
         }
         new.clear();
         self.pending = new;
-        // The old lists are taken over (when no Gram matrix still reads them) and grown in
-        // place.
+        // The old lists are given up one order at a time (when no Gram matrix still reads
+        // them), so that the merge holds at most one order twice.
         let old = std::mem::take(&mut self.merged);
         let mut old = Arc::try_unwrap(old).unwrap_or_else(|shared| (*shared).clone());
         let n = fresh.iter().fold(n.max(old.n()), |n, &k| {
@@ -160,12 +159,12 @@ impl CoCounts {
         });
         // Triples not seen before, by earlier and by later pair.
         let (mut add_from, mut add_to) = (vec![0usize; n], vec![0usize; n]);
-        let (mut keys, mut counts) = (std::mem::take(&mut old.keys), std::mem::take(&mut old.counts));
-        merge_runs(&mut keys, &mut counts, &fresh, &runs, |k| {
-            let (i, i2, _) = unpack(k);
-            add_from[i] += 1;
-            add_to[i2] += 1;
-        });
+        let (keys, counts) =
+            merge_runs(std::mem::take(&mut old.keys), std::mem::take(&mut old.counts), &fresh, &runs, |k| {
+                let (i, i2, _) = unpack(k);
+                add_from[i] += 1;
+                add_to[i2] += 1;
+            });
         // The new keys transposed, in their key order: a stable counting sort of the
         // key-ordered new keys by later pair.
         let mut at = vec![0usize; n + 1];
@@ -183,8 +182,13 @@ impl CoCounts {
             at[i2] += 1;
         }
         drop((fresh, runs));
-        let (mut tkeys, mut tcounts) = (std::mem::take(&mut old.tkeys), std::mem::take(&mut old.tcounts));
-        merge_runs(&mut tkeys, &mut tcounts, &tfresh, &truns, |_| {});
+        let (tkeys, tcounts) = merge_runs(
+            std::mem::take(&mut old.tkeys),
+            std::mem::take(&mut old.tcounts),
+            &tfresh,
+            &truns,
+            |_| {},
+        );
         let fptr = grown_index(&old.fptr, &add_from);
         let tptr = grown_index(&old.tptr, &add_to);
         let mut m = Merged { keys, counts, fptr, tkeys, tcounts, tptr, own: Vec::new(), own_len: Vec::new() };
@@ -219,57 +223,50 @@ impl CoCounts {
     }
 }
 
-/// Adds the ascending distinct keys `new` (counts `new_c`) to the ascending distinct
-/// keys `keys` (counts `counts`), in place: a key in both gets the sum of its counts (in
-/// place), the others are inserted from the back, each stretch of old keys moved once as
-/// a block. `inserted` is told each key of `new` that was not in `keys`, in key order.
+/// The ascending distinct keys `old` (counts `old_c`) with the ascending distinct keys
+/// `new` (counts `new_c`) added: a key in both gets the sum of its counts. `inserted` is
+/// told each key of `new` that was not in `old`.
 fn merge_runs(
-    keys: &mut Vec<u64>,
-    counts: &mut Vec<u32>,
+    old: Vec<u64>,
+    old_c: Vec<u32>,
     new: &[u64],
     new_c: &[u32],
     mut inserted: impl FnMut(u64),
-) {
-    // The keys already there get their counts; the others are noted with the position of
-    // the first old key above them.
-    let mut ins: Vec<(usize, u64, u32)> = Vec::new();
+) -> (Vec<u64>, Vec<u32>) {
+    let mut keys = Vec::with_capacity(old.len() + new.len());
+    let mut counts = Vec::with_capacity(old.len() + new.len());
     let mut a = 0;
     for (&nk, &nc) in new.iter().zip(new_c) {
-        // A few old keys stepped over one by one (the next new key is often near), a
-        // longer stretch found by galloping.
-        let near = (a + 8).min(keys.len());
-        while a < near && keys[a] < nk {
+        // The old keys below the new one are copied as they are: a few one by one, a
+        // longer stretch found by galloping and copied as a block.
+        let near = (a + 8).min(old.len());
+        while a < near && old[a] < nk {
+            keys.push(old[a]);
+            counts.push(old_c[a]);
             a += 1;
         }
         if a == near {
-            a += gallop(&keys[a..], nk);
+            let below = a + gallop(&old[a..], nk);
+            keys.extend_from_slice(&old[a..below]);
+            counts.extend_from_slice(&old_c[a..below]);
+            a = below;
         }
-        if a < keys.len() && keys[a] == nk {
-            counts[a] += nc;
+        let mut run = nc;
+        if a < old.len() && old[a] == nk {
+            run += old_c[a];
             a += 1;
         } else {
-            ins.push((a, nk, nc));
             inserted(nk);
         }
+        keys.push(nk);
+        counts.push(run);
     }
-    if ins.is_empty() {
-        return;
-    }
-    let old_len = keys.len();
-    keys.reserve_exact(ins.len());
-    counts.reserve_exact(ins.len());
-    keys.resize(old_len + ins.len(), 0);
-    counts.resize(old_len + ins.len(), 0);
-    // The old keys from the m-th insertion's position up to the next one's move up by
-    // m + 1; the m-th new key goes just below them.
-    let mut end = old_len;
-    for (m, &(pos, k, c)) in ins.iter().enumerate().rev() {
-        keys.copy_within(pos..end, pos + m + 1);
-        counts.copy_within(pos..end, pos + m + 1);
-        keys[pos + m] = k;
-        counts[pos + m] = c;
-        end = pos;
-    }
+    keys.extend_from_slice(&old[a..]);
+    counts.extend_from_slice(&old_c[a..]);
+    drop((old, old_c));
+    keys.shrink_to_fit();
+    counts.shrink_to_fit();
+    (keys, counts)
 }
 
 /// The start of each pair's triples (and the end of the last) over `added.len()` pairs,
