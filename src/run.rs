@@ -17,10 +17,10 @@ use crate::progress::Bars;
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
     // Only the settings given are set; one the learner does not have is an error.
     let int = |x: usize| toml::Value::Integer(x.min(i64::MAX as usize) as i64);
-    let mut given: Vec<(String, Option<toml::Value>)> = vec![
-        ("max_delay".into(), a.max_delay.map(int)),
-        ("lambda_hat".into(), a.lambda_hat.map(int)),
-        ("time_bin_s".into(), a.time_bin.map(toml::Value::Float)),
+    let mut given = vec![
+        ("max_delay", a.max_delay.map(int)),
+        ("lambda_hat", a.lambda_hat.map(int)),
+        ("time_bin_s", a.time_bin.map(toml::Value::Float)),
     ];
     for kv in &a.set {
         let (key, value) = setting(kv)?;
@@ -29,8 +29,6 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         }
         given.push((key, Some(value)));
     }
-    let given: Vec<(&str, Option<toml::Value>)> =
-        given.iter().map(|(k, v)| (k.as_str(), v.clone())).collect();
     let params = Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 };
     let learner = mmq_lab::settings::learner(&a.learner, params, &given)?;
     let cfg = RunConfig {
@@ -62,7 +60,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
 
 /// One `--set KEY=VALUE`: the value as TOML (a number, a boolean, a quoted string), else
 /// as text (`poisson:13`).
-fn setting(kv: &str) -> Result<(String, toml::Value), Failure> {
+fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
     let Some((key, value)) =
         kv.split_once('=').map(|(k, v)| (k.trim(), v.trim())).filter(|(k, _)| !k.is_empty())
     else {
@@ -74,7 +72,7 @@ fn setting(kv: &str) -> Result<(String, toml::Value), Failure> {
         .ok()
         .and_then(|mut t| t.remove("v"))
         .unwrap_or_else(|| toml::Value::String(value.to_string()));
-    Ok((key.to_string(), value))
+    Ok((key, value))
 }
 
 /// Runs `mmq run`.

@@ -201,6 +201,16 @@ impl ValueDeconvolver {
         sigma2 / (v * v)
     }
 
+    /// The reward fit's significance threshold in standard errors, over every pair of the
+    /// world (the most features a fit can have).
+    pub fn threshold_in_se(&self) -> f64 {
+        crate::deconv::threshold_in_se(
+            self.cfg.settings.significance,
+            self.num_states * self.num_actions,
+            self.num_actions,
+        )
+    }
+
     /// Refits of the reward fit so far.
     pub fn refits(&self) -> u64 {
         self.parts[0].refits()

@@ -76,8 +76,6 @@ pub struct DeconvModel {
     /// (s', N(s, a, s')) per pair.
     next: Vec<Vec<(u32, u32)>>,
     deconv: ValueDeconvolver,
-    /// κ of the reward fit's significance threshold (`significance`).
-    significance: f64,
     optimism_visits: u32,
     probes: Probes,
     /// A probe fell due and waits for a state that has one.
@@ -270,7 +268,6 @@ impl DeconvModel {
             v: vec![p.q0; num_states],
             tries: vec![0; pairs],
             next: vec![Vec::new(); pairs],
-            significance: cfg.settings.significance,
             deconv: ValueDeconvolver::new(cfg, num_states, num_actions),
             optimism_visits,
             probes,
@@ -284,12 +281,7 @@ impl DeconvModel {
     /// The same model with exploration from confidence (M2) at z standard errors
     /// (z > 0; the fixed count of `new` is then unused).
     pub fn with_confidence(mut self, z: f64) -> Self {
-        // The reward fit's universal threshold over m = |X| (1 + 1/|A|) features (its pairs
-        // and successor groups at most), as in its lasso.
-        let pairs = self.tries.len();
-        let m = (pairs + pairs / self.q.num_actions().max(1)).max(2) as f64;
-        let detect = self.significance * (2.0 * m.ln()).sqrt();
-        let mut c = Confidence::new(z, detect, pairs);
+        let mut c = Confidence::new(z, self.deconv.threshold_in_se(), self.tries.len());
         c.update(&self.deconv);
         self.confidence = Some(c);
         self

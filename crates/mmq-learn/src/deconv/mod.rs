@@ -91,6 +91,14 @@ pub struct DeconvConfig {
     pub told: Option<Vec<f64>>,
 }
 
+/// The reward fit's significance threshold in standard errors over `pairs` pairs of a
+/// world with `num_actions` actions: κ × the universal threshold √(2 ln m) of its
+/// m = pairs (1 + 1/|A|) features at most (Donoho & Johnstone), κ = `significance`.
+pub(crate) fn threshold_in_se(significance: f64, pairs: usize, num_actions: usize) -> f64 {
+    let m = (pairs + pairs / num_actions.max(1)).max(2) as f64;
+    significance * (2.0 * m.ln()).sqrt()
+}
+
 /// The step of the next refit after one at step `t`: every `refit_every` steps early on,
 /// every t/8 later.
 pub(crate) fn next_refit_after(refit_every: u64, t: u64) -> u64 {

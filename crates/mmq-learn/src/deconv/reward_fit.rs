@@ -298,9 +298,9 @@ impl Deconvolver {
     /// residual deviation `sigma`.
     fn lasso_problem<'a>(&self, g: &'a Gram, a0: f64, sigma: f64) -> Lasso<'a> {
         let n = g.n();
-        // κ × the universal threshold √(2 ln m) of m features (Donoho & Johnstone): with
-        // hundreds of pairs a plain 2σ test would pass several spurious rewards per fit.
-        let m = (n + n / self.num_actions.max(1)).max(2) as f64;
+        // With hundreds of pairs a plain 2σ test would pass several spurious rewards per
+        // fit: κ × the universal threshold over the fit's features.
+        let tau = super::threshold_in_se(self.cfg.settings.significance, n, self.num_actions);
         // With group features, a pair's own reward pays PAIR_PENALTY × a group's penalty:
         // of two explanations that fit equally (the goal's actions, or the only pair that
         // enters the goal), the coarser one wins.
@@ -318,7 +318,7 @@ impl Deconvolver {
             g,
             bvec: self.stats.bvec(&self.pmf),
             ridge: self.cfg.settings.reward_prior * a0,
-            kappa: self.cfg.settings.significance * (2.0 * m.ln()).sqrt() * sigma,
+            kappa: tau * sigma,
             lasso: self.cfg.settings.lasso,
             sign: self.sign,
             pair_factor: if grouped { PAIR_PENALTY } else { 1.0 },
