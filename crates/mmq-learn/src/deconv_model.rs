@@ -84,6 +84,8 @@ pub struct DeconvModel {
     probes_taken: u64,
     /// The confidence rule (M2), when on (else the fixed count `optimism_visits`).
     confidence: Option<Confidence>,
+    /// Plan the values of the ε-greedy policy followed, (M1′), instead of the greedy one.
+    plan_exploration: bool,
     /// The states whose values the next sweep must recompute, and the deconvolver's
     /// refits when R̂ was last planned with ([`Dirty`]).
     dirty: Dirty,
@@ -244,11 +246,36 @@ pub struct Probes {
     pub rate: f64,
     /// Probes stop once the median of p̂ has at most this standard error, steps.
     pub precision: f64,
+    /// The steps at which a due probe may be taken.
+    pub steps: ProbeSteps,
+}
+
+/// The steps at which a due delay probe may be taken (in a state that has one).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ProbeSteps {
+    /// A step that is not ε-exploration: the probe replaces the greedy action.
+    #[default]
+    Greedy,
+    /// A step of ε-exploration: the probe replaces its random action.
+    Exploring,
+    /// Either.
+    Any,
+}
+
+impl ProbeSteps {
+    fn allows(self, explored: bool) -> bool {
+        match self {
+            ProbeSteps::Greedy => !explored,
+            ProbeSteps::Exploring => explored,
+            ProbeSteps::Any => true,
+        }
+    }
 }
 
 impl Probes {
     /// No probes.
-    pub const OFF: Probes = Probes { rate: 0.0, precision: f64::INFINITY };
+    pub const OFF: Probes = Probes { rate: 0.0, precision: f64::INFINITY, steps: ProbeSteps::Greedy };
 }
 
 impl DeconvModel {
@@ -274,8 +301,16 @@ impl DeconvModel {
             probe_due: false,
             probes_taken: 0,
             confidence: None,
+            plan_exploration: false,
             dirty: Dirty::new(num_states),
         }
+    }
+
+    /// The same model planning the values of the ε-greedy policy it follows, (M1′):
+    /// V(s) = (1 − ε) max_a Q(s, a) + ε mean_a Q(s, a).
+    pub fn planning_exploration(mut self) -> Self {
+        self.plan_exploration = true;
+        self
     }
 
     /// The same model with exploration from confidence (M2) at z standard errors
@@ -348,6 +383,7 @@ impl DeconvModel {
     /// would get the same values, so the sweep's result is that of the full sweep.
     pub fn plan(&mut self) {
         let (a_n, gamma, q0, m) = (self.q.num_actions(), self.p.gamma, self.p.q0, self.optimism_visits);
+        let (soft, eps) = (self.plan_exploration, self.p.epsilon);
         let num_states = self.v.len();
         let refits = self.deconv.refits();
         if self.dirty.refits != Some(refits) {
@@ -378,6 +414,7 @@ impl DeconvModel {
         while let Some(s) = self.dirty.take_from(from) {
             from = s + 1;
             let mut best = f64::NEG_INFINITY;
+            let mut sum = 0.0;
             for a in 0..a_n {
                 let i = s * a_n + a;
                 let n = self.tries[i];
@@ -395,6 +432,11 @@ impl DeconvModel {
                 };
                 self.q[i] = q;
                 best = best.max(q);
+                sum += q;
+            }
+            if soft {
+                // (M1′): the value of the ε-greedy policy, whose random action is uniform.
+                best = (1.0 - eps) * best + eps * (sum / a_n as f64);
             }
             if best.to_bits() != self.v[s].to_bits() {
                 self.v[s] = best;
@@ -424,7 +466,7 @@ impl Learner for DeconvModel {
                 self.probe_due = true;
             }
             if self.probe_due
-                && !explored
+                && self.probes.steps.allows(explored)
                 && let Some(probe) = self.probe_action(s)
             {
                 self.probe_due = false;
@@ -525,6 +567,74 @@ mod tests {
         assert!((l.q(0, 0) - 20.0 / 3.0).abs() < 1e-6 && (l.q(1, 0) - 16.0 / 3.0).abs() < 1e-6);
     }
 
+    /// (M1′) by hand: one state, two actions, both staying; action 0 tried (R̂ = 0, no
+    /// reward), action 1 never (optimistic, q0 = 10); γ = ½, ε = ½. The greedy value is
+    /// V = 10 and Q(0) = ½·10 = 5 at every step. The ε-greedy value, from V = q0 = 10:
+    /// Q(0) = 5, V = ½·10 + ½·(5 + 10)/2 = 8.75; then Q(0) = 4.375, V = 5 + ¼·14.375 =
+    /// 8.59375; fixed point V = (10 − 5ε) / (1 − εγ/2) = 60/7, Q(0) = 30/7.
+    #[test]
+    fn planning_the_epsilon_greedy_values_by_hand() {
+        let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.5, q0: 10.0 };
+        let run = |soft: bool, steps: u64| {
+            let l = DeconvModel::new(p, tiny_config(), 1, Probes::OFF, 1, 2);
+            let mut l = if soft { l.planning_exploration() } else { l };
+            for t in 0..steps {
+                l.observe(&exp(t, 0, 0, 0, 0.0));
+            }
+            (l.q(0, 0), l.q(0, 1), l.v[0])
+        };
+        let close =
+            |(q, v): (f64, f64), want: (f64, f64)| (q - want.0).abs() < 1e-12 && (v - want.1).abs() < 1e-12;
+        let (q0, q1, v) = run(false, 1);
+        assert_eq!((q0, q1, v), (5.0, 10.0, 10.0));
+        let (q0, q1, v) = run(true, 1);
+        assert!(close((q0, v), (5.0, 8.75)) && q1 == 10.0, "{q0} {v}");
+        let (q0, _, v) = run(true, 2);
+        assert!(close((q0, v), (4.375, 8.59375)), "{q0} {v}");
+        let (q0, _, v) = run(true, 60);
+        assert!(close((q0, v), (30.0 / 7.0, 60.0 / 7.0)), "{q0} {v}");
+        assert_eq!(run(false, 60), (5.0, 10.0, 10.0));
+    }
+
+    /// The two-state world of the probe tests after 24 steps of its trace, ready to probe.
+    fn build_probe_world(p: Params, probes: Probes) -> DeconvModel {
+        let mut cfg = tiny_config();
+        (cfg.told, cfg.settings.pmf_weighted) = (None, true);
+        let mut l = DeconvModel::new(p, cfg, 1, probes, 2, 2);
+        let trace = [(0, 0, 0, -1.0), (0, 1, 1, 0.0), (1, 0, 0, 2.0)];
+        for t in 0..24 {
+            let (s, a, s2, r) = trace[t % 3];
+            l.observe(&exp(t as u64, s, a, s2, r));
+        }
+        l
+    }
+
+    /// The world below with probes taken in exploration: at ε = 1 every step explores, and
+    /// the due probe replaces the random action at once (in state 0, the one with a
+    /// probe); at ε = 0 no step explores and the probe waits however greedy the step, as a
+    /// probe for greedy steps waits at ε = 1.
+    #[test]
+    fn probes_in_exploration_replace_the_random_action() {
+        let inside = Probes { rate: 1.0, precision: 1e-9, steps: ProbeSteps::Exploring };
+        let mut rng = mmq_core::seed::rng_from_seed(5);
+        let explore = Params { alpha: 0.5, gamma: 0.5, epsilon: 1.0, q0: 0.0 };
+        let mut l = build_probe_world(explore, inside);
+        let d = l.act(0, &mut rng);
+        assert_eq!((d.action, d.explored, l.probe_due), (0, true, false));
+        assert_eq!(l.diagnostics().figure("learner/probes"), Some(1.0));
+        let greedy = Params { epsilon: 0.0, ..explore };
+        let mut l = build_probe_world(greedy, inside);
+        for _ in 0..5 {
+            let d = l.act(0, &mut rng);
+            assert_eq!((d.action, d.explored, l.probe_due), (1, false, true));
+        }
+        let mut l = build_probe_world(explore, Probes { steps: ProbeSteps::Greedy, ..inside });
+        for _ in 0..20 {
+            assert!(l.act(0, &mut rng).explored && l.probe_due);
+        }
+        assert_eq!(l.diagnostics().figure("learner/probes"), Some(0.0));
+    }
+
     /// State 0: action 0 bumps (stays, −1), action 1 moves to state 1 (0); state 1's one
     /// action returns to 0 with +2; rewards arrive at once. After a refit with the delay
     /// estimated, (0, 0) is a probe (tried, stays, R̂ < 0) and state 1 has none. With ε = 0
@@ -534,19 +644,9 @@ mod tests {
     #[test]
     fn probes_take_the_known_bump_while_the_delay_is_uncertain() {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
-        let mut cfg = tiny_config();
-        (cfg.told, cfg.settings.pmf_weighted) = (None, true);
-        let build = |probes| {
-            let mut l = DeconvModel::new(p, cfg.clone(), 1, probes, 2, 2);
-            let trace = [(0, 0, 0, -1.0), (0, 1, 1, 0.0), (1, 0, 0, 2.0)];
-            for t in 0..24 {
-                let (s, a, s2, r) = trace[t % 3];
-                l.observe(&exp(t as u64, s, a, s2, r));
-            }
-            l
-        };
+        let build = |probes| build_probe_world(p, probes);
         let mut rng = mmq_core::seed::rng_from_seed(3);
-        let mut l = build(Probes { rate: 1.0, precision: 1e-9 });
+        let mut l = build(Probes { rate: 1.0, precision: 1e-9, steps: ProbeSteps::Greedy });
         let se = l.deconvolver().median_se().expect("the delay is estimated").steps;
         assert!(l.deconvolver().reward(0) < 0.0 && se > 1e-9, "R̂ {}, SE {se}", l.deconvolver().reward(0));
         assert_eq!((l.probe_action(0), l.probe_action(1)), (Some(0), None));
@@ -556,9 +656,11 @@ mod tests {
         let probe = l.act(0, &mut rng);
         assert_eq!((probe.action, probe.explored, l.probe_due), (0, true, false));
         assert_eq!(l.diagnostics().figure("learner/probes"), Some(1.0));
-        for probes in
-            [Probes { rate: 1.0, precision: se * 2.0 }, Probes { rate: 0.0, precision: 1e-9 }, Probes::OFF]
-        {
+        for probes in [
+            Probes { rate: 1.0, precision: se * 2.0, steps: ProbeSteps::Greedy },
+            Probes { rate: 0.0, precision: 1e-9, steps: ProbeSteps::Greedy },
+            Probes::OFF,
+        ] {
             let mut l = build(probes);
             let d = l.act(0, &mut rng);
             assert_eq!((d.action, d.explored), (1, false), "{probes:?}");

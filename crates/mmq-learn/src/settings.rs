@@ -306,11 +306,20 @@ pub struct ExploreSettings {
     /// Probes stop once the median of the delay estimate has a standard error of at most
     /// this many steps (`deconv-model-time`: bins) ([`crate::deconv::Deconvolver::median_se`]; > 0).
     pub probe_precision: f64,
+    /// The steps at which a due probe is taken: `"greedy"` (a step that is not
+    /// ε-exploration; the default), `"exploring"` (a step of ε-exploration, in place of
+    /// its random action) or `"any"`.
+    pub probe_steps: crate::deconv_model::ProbeSteps,
 }
 
 impl Default for ExploreSettings {
     fn default() -> Self {
-        Self { optimism_visits: 10, probe_rate: 0.02, probe_precision: 0.5 }
+        Self {
+            optimism_visits: 10,
+            probe_rate: 0.02,
+            probe_precision: 0.5,
+            probe_steps: crate::deconv_model::ProbeSteps::Greedy,
+        }
     }
 }
 
@@ -330,7 +339,11 @@ impl ExploreSettings {
     }
 
     fn probes(&self) -> crate::deconv_model::Probes {
-        crate::deconv_model::Probes { rate: self.probe_rate, precision: self.probe_precision }
+        crate::deconv_model::Probes {
+            rate: self.probe_rate,
+            precision: self.probe_precision,
+            steps: self.probe_steps,
+        }
     }
 }
 
@@ -351,6 +364,10 @@ pub struct DeconvModelSettings {
     /// fixed count `optimism_visits` (docs/algorithms/deconv-model.md, "Exploration from
     /// confidence", says what each costs).
     pub optimism_confidence: f64,
+    /// Plan the values of the ε-greedy policy the agent follows, V(s) = (1 − ε) max_a Q
+    /// + ε mean_a Q ([`crate::deconv_model`], (M1′)), so that it prefers paths where a
+    /// random action costs little; false (the default): V(s) = max_a Q.
+    pub plan_exploration: bool,
 }
 
 /// Settings of `deconv-model-time`.
@@ -567,6 +584,7 @@ impl LearnerSettings {
                     n,
                     m,
                 );
+                let l = if s.plan_exploration { l.planning_exploration() } else { l };
                 let z = s.optimism_confidence;
                 Box::new(if z > 0.0 { l.with_confidence(z) } else { l })
             }
