@@ -364,9 +364,10 @@ pub struct DeconvModelSettings {
     /// fixed count `optimism_visits` (docs/algorithms/deconv-model.md, "Exploration from
     /// confidence", says what each costs).
     pub optimism_confidence: f64,
-    /// Plan the values of the ε-greedy policy the agent follows, V(s) = (1 − ε) max_a Q
-    /// + ε mean_a Q ([`crate::deconv_model`], (M1′)), so that it prefers paths where a
-    /// random action costs little; false (the default): V(s) = max_a Q.
+    /// Plan the values of the ε-greedy policy the agent follows,
+    /// V(s) = (1 − ε) max_a Q + ε mean_a Q ([`crate::deconv_model`], (M1′)), so that it
+    /// prefers paths where a random action costs little; false (the default):
+    /// V(s) = max_a Q.
     pub plan_exploration: bool,
 }
 
