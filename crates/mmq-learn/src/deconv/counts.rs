@@ -1,15 +1,11 @@
 //! Sparse lag co-occurrence counts C_j(i, i') = #{t : x_{t−j} = i, x_t = i'}: only the
-//! (pair, pair, lag) triples that occurred are stored, as sorted packed keys and their
-//! counts. A step adds K + 1 keys to a pending buffer; before the counts are read the
-//! buffer is sorted (by radix), run-length encoded and merged in. The triples are kept
-//! twice, each pair's own sorted run of them as earlier pair and as later pair, so that
-//! one row of the Gram matrix reads its triples from two contiguous runs, and a merge
-//! touches only the runs of pairs that have new co-occurrences: the counts of triples
-//! already stored are added where they are, and new triples are merged into their run
-//! from the back (moving only the part of that run after the first insertion). Memory is
-//! 24 bytes per distinct triple (at most (K + 1) per step, far fewer once the agent
-//! repeats itself), plus up to a quarter of that of each run's spare capacity, and about
-//! 100 bytes per pair, independent of the number of pairs the world has.
+//! (pair, pair, lag) triples that occurred are stored, as a sorted list of packed keys
+//! and their counts. A step adds K + 1 keys to a pending buffer; before the counts are
+//! read the buffer is sorted (by radix), run-length encoded and merged into the list.
+//! The list is kept twice, ordered by earlier pair and by later pair, so that one row of
+//! the Gram matrix reads its triples from two contiguous ranges. Memory is 24 bytes per
+//! distinct triple (at most (K + 1) per step, far fewer once the agent repeats itself)
+//! and 28 per pair, independent of the number of pairs the world has.
 
 use std::sync::Arc;
 
@@ -40,127 +36,36 @@ pub(crate) fn unpack(k: u64) -> (usize, usize, usize) {
     )
 }
 
-/// The leading pair of a packed key.
-#[inline]
-fn lead(k: u64) -> usize {
-    (k >> (PAIR_BITS + LAG_BITS)) as usize
-}
-
-/// One pair's triples in one order: their packed keys ascending and their counts.
-#[derive(Clone, Debug, Default)]
-struct Run {
-    keys: Vec<u64>,
-    counts: Vec<u32>,
-}
-
-impl Run {
-    /// Adds the ascending distinct keys `new` (counts `new_c`), all of this run's leading
-    /// pair: a key already here gets its count added in place, the others are inserted
-    /// in order. Returns the number inserted; `missing` is scratch space.
-    fn add(&mut self, new: &[u64], new_c: &[u32], missing: &mut Vec<(usize, u64, u32)>) -> usize {
-        // The counts of the keys already here added (both ascend: a few old keys passed
-        // one by one, a longer stretch by galloping); the others noted with the number
-        // of old keys below them.
-        missing.clear();
-        let (keys, len) = (&self.keys, self.keys.len());
-        let mut a = 0;
-        for (&k, &c) in new.iter().zip(new_c) {
-            let near = (a + 8).min(len);
-            while a < near && keys[a] < k {
-                a += 1;
-            }
-            if a == near {
-                a += gallop(&keys[a..], k);
-            }
-            if a < len && keys[a] == k {
-                self.counts[a] += c;
-                a += 1;
-            } else {
-                missing.push((a, k, c));
-            }
-        }
-        if missing.is_empty() {
-            return 0;
-        }
-        let (old, total) = (len, len + missing.len());
-        if self.keys.capacity() < total {
-            // Into new arrays with room to grow by a quarter: each stretch of old keys
-            // between two new ones copied once.
-            let cap = total + total / 4;
-            let (mut keys, mut counts) = (Vec::with_capacity(cap), Vec::with_capacity(cap));
-            let mut a = 0;
-            for &(p, k, c) in missing.iter() {
-                if p - a < 8 {
-                    for q in a..p {
-                        keys.push(self.keys[q]);
-                        counts.push(self.counts[q]);
-                    }
-                } else {
-                    keys.extend_from_slice(&self.keys[a..p]);
-                    counts.extend_from_slice(&self.counts[a..p]);
-                }
-                keys.push(k);
-                counts.push(c);
-                a = p;
-            }
-            keys.extend_from_slice(&self.keys[a..]);
-            counts.extend_from_slice(&self.counts[a..]);
-            (self.keys, self.counts) = (keys, counts);
-            return missing.len();
-        }
-        // Else merged in from the back: each stretch of old keys above a new one is moved
-        // once, by the number of new keys still to place below it.
-        self.keys.resize(total, 0);
-        self.counts.resize(total, 0);
-        let mut a = old;
-        for (m, &(p, k, c)) in missing.iter().enumerate().rev() {
-            if a - p < 8 {
-                for q in (p..a).rev() {
-                    self.keys[q + m + 1] = self.keys[q];
-                    self.counts[q + m + 1] = self.counts[q];
-                }
-            } else {
-                self.keys.copy_within(p..a, p + m + 1);
-                self.counts.copy_within(p..a, p + m + 1);
-            }
-            self.keys[p + m] = k;
-            self.counts[p + m] = c;
-            a = p;
-        }
-        missing.len()
-    }
-
-    fn bytes(&self) -> usize {
-        self.keys.capacity() * 8 + self.counts.capacity() * 4 + std::mem::size_of::<Self>()
-    }
-}
-
-/// The merged triples: for each pair, its triples as the earlier pair (keys
-/// key(i, i2, j) in key order) and as the later pair (keys key(i2, i, j) of every
-/// triple (i, i2, j), in that key order), so that one row of the Gram matrix reads only
-/// its own triples.
+/// The merged triples: their packed keys in key order and their counts, and the same
+/// triples keyed (later pair, earlier pair, lag) in that key order, each indexed by its
+/// leading pair (the triples of an earlier pair, and those of a later pair, are
+/// contiguous), so that one row of the Gram matrix reads only its own triples.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Merged {
-    /// The triples with earlier pair i.
-    from: Vec<Run>,
-    /// The triples with later pair i2, keyed by it.
-    to: Vec<Run>,
-    /// The triples (i, i, ·) are the `own[i].1` in `from[i]` from `own[i].0`.
-    own: Vec<(u32, u32)>,
-    /// Distinct triples.
-    len: usize,
+    keys: Vec<u64>,
+    counts: Vec<u32>,
+    /// The triples with earlier pair i are at fptr[i]..fptr[i + 1].
+    fptr: Vec<usize>,
+    /// key(i2, i, j) of every triple (i, i2, j), in order, and its count.
+    tkeys: Vec<u64>,
+    tcounts: Vec<u32>,
+    /// The triples with later pair i2 are at tkeys[tptr[i2]..tptr[i2 + 1]].
+    tptr: Vec<usize>,
+    /// The triples (i, i, ·) are the `own_len[i]` from keys[own[i]].
+    own: Vec<usize>,
+    own_len: Vec<u32>,
 }
 
 impl Merged {
     /// The pairs indexed.
     pub(crate) fn n(&self) -> usize {
-        self.from.len()
+        self.fptr.len().saturating_sub(1)
     }
 
     /// The triples (earlier `i`, ·, ·), as (later pair, lag, count) in key order.
     pub(crate) fn triples_from(&self, i: usize) -> impl Iterator<Item = (usize, usize, u32)> + '_ {
-        let r = &self.from[i];
-        r.keys.iter().zip(&r.counts).map(|(&k, &c)| {
+        let (lo, hi) = (self.fptr[i], self.fptr[i + 1]);
+        self.keys[lo..hi].iter().zip(&self.counts[lo..hi]).map(|(&k, &c)| {
             let (_, i2, j) = unpack(k);
             (i2, j, c)
         })
@@ -168,13 +73,13 @@ impl Merged {
 
     /// The number of triples (earlier `i`, ·, ·).
     pub(crate) fn len_from(&self, i: usize) -> usize {
-        self.from.get(i).map_or(0, |r| r.keys.len())
+        if i < self.n() { self.fptr[i + 1] - self.fptr[i] } else { 0 }
     }
 
     /// The triples (·, later `i2`, ·), as (earlier pair, lag, count) in key order.
     pub(crate) fn triples_to(&self, i2: usize) -> impl Iterator<Item = (usize, usize, u32)> + '_ {
-        let r = &self.to[i2];
-        r.keys.iter().zip(&r.counts).map(|(&k, &c)| {
+        let (lo, hi) = (self.tptr[i2], self.tptr[i2 + 1]);
+        self.tkeys[lo..hi].iter().zip(&self.tcounts[lo..hi]).map(|(&k, &c)| {
             let (_, i, j) = unpack(k);
             (i, j, c)
         })
@@ -182,12 +87,12 @@ impl Merged {
 
     /// The counts of (earlier `i`, later `i2`) by lag, as (lag, count) in lag order.
     pub(crate) fn pair_run(&self, i: usize, i2: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
-        let (keys, counts): (&[u64], &[u32]) = self.from.get(i).map_or((&[], &[]), |r| (&r.keys, &r.counts));
-        let start = keys.partition_point(|&k| k < key(i, i2, 0));
+        let (lo, hi) = if i < self.n() { (self.fptr[i], self.fptr[i + 1]) } else { (0, 0) };
+        let start = lo + self.keys[lo..hi].partition_point(|&k| k < key(i, i2, 0));
         let last = key(i, i2, (1 << LAG_BITS) - 1);
-        keys[start..]
+        self.keys[start..hi]
             .iter()
-            .zip(&counts[start..])
+            .zip(&self.counts[start..hi])
             .take_while(move |(k, _)| **k <= last)
             .map(|(&k, &c)| (unpack(k).2, c))
     }
@@ -195,34 +100,15 @@ impl Merged {
     /// The counts of (`i`, `i`) by lag, as (lag, count) in lag order: [`Self::pair_run`]
     /// of a pair with itself, found at the merge.
     pub(crate) fn own_run(&self, i: usize) -> impl Iterator<Item = (usize, u32)> + '_ {
-        let (keys, counts, lo, len): (&[u64], &[u32], usize, usize) = match self.from.get(i) {
-            Some(r) => (&r.keys, &r.counts, self.own[i].0 as usize, self.own[i].1 as usize),
-            None => (&[], &[], 0, 0),
-        };
-        keys[lo..lo + len].iter().zip(&counts[lo..lo + len]).map(|(&k, &c)| (unpack(k).2, c))
+        let (lo, len) = if i < self.n() { (self.own[i], self.own_len[i] as usize) } else { (0, 0) };
+        self.keys[lo..lo + len].iter().zip(&self.counts[lo..lo + len]).map(|(&k, &c)| (unpack(k).2, c))
     }
 
     /// Every triple, in key order, with its count.
     #[cfg(test)]
     pub(crate) fn iter(&self) -> impl Iterator<Item = (u64, u32)> + '_ {
-        self.from.iter().flat_map(|r| r.keys.iter().copied().zip(r.counts.iter().copied()))
+        self.keys.iter().copied().zip(self.counts.iter().copied())
     }
-}
-
-/// Adds the ascending distinct keys `new` (counts `new_c`) to `runs`, the runs by each
-/// key's leading pair. Returns the number of keys inserted; calls `touched` with each
-/// leading pair whose run received keys.
-fn add_by_lead(runs: &mut [Run], new: &[u64], new_c: &[u32], mut touched: impl FnMut(usize, &Run)) -> usize {
-    let (mut inserted, mut missing) = (0, Vec::new());
-    let mut s = 0;
-    while s < new.len() {
-        let i = lead(new[s]);
-        let e = s + new[s..].partition_point(|&k| lead(k) == i);
-        inserted += runs[i].add(&new[s..e], &new_c[s..e], &mut missing);
-        touched(i, &runs[i]);
-        s = e;
-    }
-    inserted
 }
 
 /// The merged triples (shared with the Gram matrices read from them) and the keys not
@@ -243,7 +129,7 @@ impl CoCounts {
         }
     }
 
-    /// Merges the pending keys into the sorted runs and indexes them over `n` pairs (at
+    /// Merges the pending keys into the sorted lists and indexes them over `n` pairs (at
     /// least every pair in them; the counts do not depend on when).
     pub(crate) fn merge(&mut self, n: usize) {
         if self.pending.is_empty() && self.merged.n() == n {
@@ -263,21 +149,22 @@ impl CoCounts {
         }
         new.clear();
         self.pending = new;
-        // Changed in place (copied only when a Gram matrix still reads them).
-        let m = Arc::make_mut(&mut self.merged);
-        let n = fresh.iter().fold(n.max(m.n()), |n, &k| {
+        // The old lists are given up one order at a time (when no Gram matrix still reads
+        // them), so that the merge holds at most one order twice.
+        let old = std::mem::take(&mut self.merged);
+        let mut old = Arc::try_unwrap(old).unwrap_or_else(|shared| (*shared).clone());
+        let n = fresh.iter().fold(n.max(old.n()), |n, &k| {
             let (i, i2, _) = unpack(k);
             n.max(i + 1).max(i2 + 1)
         });
-        m.from.resize_with(n, Run::default);
-        m.to.resize_with(n, Run::default);
-        m.own.resize(n, (0, 0));
-        let own = &mut m.own;
-        m.len += add_by_lead(&mut m.from, &fresh, &runs, |i, r| {
-            let start = r.keys.partition_point(|&k| k < key(i, i, 0));
-            let end = start + r.keys[start..].partition_point(|&k| k <= key(i, i, (1 << LAG_BITS) - 1));
-            own[i] = (start as u32, (end - start) as u32);
-        });
+        // Triples not seen before, by earlier and by later pair.
+        let (mut add_from, mut add_to) = (vec![0usize; n], vec![0usize; n]);
+        let (keys, counts) =
+            merge_runs(std::mem::take(&mut old.keys), std::mem::take(&mut old.counts), &fresh, &runs, |k| {
+                let (i, i2, _) = unpack(k);
+                add_from[i] += 1;
+                add_to[i2] += 1;
+            });
         // The new keys transposed, in their key order: a stable counting sort of the
         // key-ordered new keys by later pair.
         let mut at = vec![0usize; n + 1];
@@ -295,7 +182,24 @@ impl CoCounts {
             at[i2] += 1;
         }
         drop((fresh, runs));
-        add_by_lead(&mut m.to, &tfresh, &truns, |_, _| {});
+        let (tkeys, tcounts) = merge_runs(
+            std::mem::take(&mut old.tkeys),
+            std::mem::take(&mut old.tcounts),
+            &tfresh,
+            &truns,
+            |_| {},
+        );
+        let fptr = grown_index(&old.fptr, &add_from);
+        let tptr = grown_index(&old.tptr, &add_to);
+        let mut m = Merged { keys, counts, fptr, tkeys, tcounts, tptr, own: Vec::new(), own_len: Vec::new() };
+        for i in 0..n {
+            let (lo, hi) = (m.fptr[i], m.fptr[i + 1]);
+            let start = lo + m.keys[lo..hi].partition_point(|&k| k < key(i, i, 0));
+            let end = start + m.keys[start..hi].partition_point(|&k| k <= key(i, i, (1 << LAG_BITS) - 1));
+            m.own.push(start);
+            m.own_len.push((end - start) as u32);
+        }
+        self.merged = Arc::new(m);
     }
 
     /// The merged triples; pending keys are not included ([`Self::merge`] first).
@@ -305,17 +209,80 @@ impl CoCounts {
 
     /// Distinct triples stored (merged).
     pub(crate) fn len(&self) -> usize {
-        self.merged.len
+        self.merged.keys.len()
     }
 
     /// Bytes held (merged, both orders and their indexes, and pending, by capacity).
     pub(crate) fn bytes(&self) -> usize {
         let m = &self.merged;
-        m.from.iter().chain(&m.to).map(Run::bytes).sum::<usize>()
-            + (m.from.capacity() + m.to.capacity() - m.from.len() - m.to.len()) * std::mem::size_of::<Run>()
-            + m.own.capacity() * 8
+        (m.keys.capacity() + m.tkeys.capacity()) * 8
+            + (m.counts.capacity() + m.tcounts.capacity()) * 4
+            + (m.fptr.capacity() + m.tptr.capacity() + m.own.capacity()) * 8
+            + m.own_len.capacity() * 4
             + self.pending.capacity() * 8
     }
+}
+
+/// The ascending distinct keys `old` (counts `old_c`) with the ascending distinct keys
+/// `new` (counts `new_c`) added: a key in both gets the sum of its counts. `inserted` is
+/// told each key of `new` that was not in `old`.
+fn merge_runs(
+    old: Vec<u64>,
+    old_c: Vec<u32>,
+    new: &[u64],
+    new_c: &[u32],
+    mut inserted: impl FnMut(u64),
+) -> (Vec<u64>, Vec<u32>) {
+    let mut keys = Vec::with_capacity(old.len() + new.len());
+    let mut counts = Vec::with_capacity(old.len() + new.len());
+    let mut a = 0;
+    for (&nk, &nc) in new.iter().zip(new_c) {
+        // The old keys below the new one are copied as they are: a few one by one, a
+        // longer stretch found by galloping and copied as a block.
+        let near = (a + 8).min(old.len());
+        while a < near && old[a] < nk {
+            keys.push(old[a]);
+            counts.push(old_c[a]);
+            a += 1;
+        }
+        if a == near {
+            let below = a + gallop(&old[a..], nk);
+            keys.extend_from_slice(&old[a..below]);
+            counts.extend_from_slice(&old_c[a..below]);
+            a = below;
+        }
+        let mut run = nc;
+        if a < old.len() && old[a] == nk {
+            run += old_c[a];
+            a += 1;
+        } else {
+            inserted(nk);
+        }
+        keys.push(nk);
+        counts.push(run);
+    }
+    keys.extend_from_slice(&old[a..]);
+    counts.extend_from_slice(&old_c[a..]);
+    drop((old, old_c));
+    keys.shrink_to_fit();
+    counts.shrink_to_fit();
+    (keys, counts)
+}
+
+/// The start of each pair's triples (and the end of the last) over `added.len()` pairs,
+/// from those before (`old`, over at most as many pairs) and the number of triples
+/// `added` to each pair.
+fn grown_index(old: &[usize], added: &[usize]) -> Vec<usize> {
+    let n = added.len();
+    let mut ptr = Vec::with_capacity(n + 1);
+    ptr.push(0);
+    let mut acc = 0;
+    for (i, &a) in added.iter().enumerate() {
+        let had = if i + 1 < old.len() { old[i + 1] - old[i] } else { 0 };
+        acc += had + a;
+        ptr.push(acc);
+    }
+    ptr
 }
 
 /// Sorts packed keys ascending: least-significant-digit radix sort of the keys with their
@@ -341,19 +308,13 @@ fn radix_sort(keys: &mut Vec<u64>) {
             | (((k >> LAG_BITS) & ((1 << w2) - 1)) << wl)
             | ((k >> (LAG_BITS + PAIR_BITS)) << (wl + w2))
     };
-    let loose = |t: u64| {
-        (t & ((1 << wl) - 1))
-            | (((t >> wl) & ((1 << w2) - 1)) << LAG_BITS)
-            | ((t >> (wl + w2)) << (LAG_BITS + PAIR_BITS))
-    };
     let passes = total.div_ceil(12);
     let bits = total.div_ceil(passes);
     let (buckets, mask) = (1usize << bits, (1u64 << bits) - 1);
-    // The keys packed tight and every digit's histogram, in one pass.
+    // Every digit's histogram in one read.
     let mut count = vec![0usize; passes as usize * buckets];
-    for k in keys.iter_mut() {
-        let t = tight(*k);
-        *k = t;
+    for &k in keys.iter() {
+        let t = tight(k);
         for p in 0..passes {
             count[p as usize * buckets + ((t >> (p * bits)) & mask) as usize] += 1;
         }
@@ -369,15 +330,12 @@ fn radix_sort(keys: &mut Vec<u64>) {
             (*c, acc) = (acc, acc + *c);
         }
         let shift = p as u32 * bits;
-        for &t in keys.iter() {
-            let d = ((t >> shift) & mask) as usize;
-            buf[count[d]] = t;
+        for &k in keys.iter() {
+            let d = ((tight(k) >> shift) & mask) as usize;
+            buf[count[d]] = k;
             count[d] += 1;
         }
         std::mem::swap(keys, &mut buf);
-    }
-    for k in keys.iter_mut() {
-        *k = loose(*k);
     }
 }
 
@@ -454,30 +412,6 @@ mod tests {
         assert_eq!(m.triples_to(2).collect::<Vec<_>>(), vec![(1, 0, 2), (1, 3, 2)]);
         assert_eq!(m.triples_to(1).collect::<Vec<_>>(), vec![(2, 0, 1)]);
         assert_eq!(m.triples_to(0).collect::<Vec<_>>(), vec![(0, 1, 1)]);
-    }
-
-    /// A run takes new keys into new arrays (no room) and in place (room left): counts
-    /// of keys it holds added, the others inserted in order, at the front, between and
-    /// at the back.
-    #[test]
-    fn runs_add_in_place_and_into_new_arrays() {
-        let mut r = Run::default();
-        let mut scratch = Vec::new();
-        assert_eq!(r.add(&[10, 20, 30], &[1, 2, 3], &mut scratch), 3);
-        r.keys.reserve(100);
-        r.counts.reserve(100);
-        assert_eq!(r.add(&[5, 20, 25, 40, 41], &[1, 1, 1, 1, 1], &mut scratch), 4);
-        assert_eq!(r.keys, vec![5, 10, 20, 25, 30, 40, 41]);
-        assert_eq!(r.counts, vec![1, 1, 3, 1, 3, 1, 1]);
-        assert_eq!(r.add(&[10, 41], &[2, 2], &mut scratch), 0);
-        assert_eq!(r.counts, vec![1, 3, 3, 1, 3, 1, 3]);
-        let keys: Vec<u64> = (0..40).map(|k| 2 * k + 1).collect();
-        let added = r.add(&keys, &[1; 40], &mut scratch);
-        assert_eq!(added, 37);
-        let mut want: Vec<u64> = keys.iter().copied().chain([10, 20, 30, 40]).collect();
-        want.sort_unstable();
-        assert_eq!(r.keys, want);
-        assert_eq!(r.counts.iter().sum::<u32>(), 15 + 40);
     }
 
     /// The radix sort agrees with a comparison sort, for keys of small and of large pair

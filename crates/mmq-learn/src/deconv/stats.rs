@@ -54,8 +54,8 @@ impl LagStats {
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without
     /// the co-occurrence counts (those grow with the run: 24 bytes per distinct
-    /// (pair, pair, lag) triple in both orders and up to a quarter more of spare room, at
-    /// most K + 1 new ones per step, and about 100 per pair).
+    /// (pair, pair, lag) triple in both orders, at most K + 1 new ones per step, and 28
+    /// per pair).
     pub(crate) fn bytes(pairs: usize, max_delay: usize) -> u128 {
         let (p, k) = (pairs as u128, max_delay as u128 + 1);
         k * p * 8 + p * 24 + 16 * k
