@@ -263,7 +263,7 @@ impl ValueDeconvolver {
     fn refit(&mut self) {
         Deconvolver::refit_all(&mut self.parts);
         let t = self.parts[0].steps();
-        self.next_refit = next_refit_after(self.cfg.settings.refit_every, t);
+        self.next_refit = next_refit_after(&self.cfg.settings, t);
         self.sum_rewards();
         self.update_values();
     }

@@ -132,6 +132,7 @@ pub(crate) mod tests {
             pmf_prior: 0.0,
             pmf_smoothness: 0.0,
             refit_every: 4,
+            refit_growth: 8,
             decode_values: false,
             told_delay: None,
         };

@@ -306,6 +306,9 @@ mod tests {
         m.deconv.pmf_smoothness = -1.0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_smoothness"));
         m.deconv.pmf_smoothness = 0.0;
+        m.deconv.refit_growth = 0;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_growth"));
+        m.deconv.refit_growth = 8;
         m.explore.probe_rate = 1.5;
         let msg = e(&LearnerSettings::DeconvModel(m.clone()));
         assert!(msg.contains("probe_rate") && msg.contains("[0, 1]"), "{msg}");

@@ -100,9 +100,9 @@ pub(crate) fn threshold_in_se(significance: f64, pairs: usize, num_actions: usiz
 }
 
 /// The step of the next refit after one at step `t`: every `refit_every` steps early on,
-/// every t/8 later.
-pub(crate) fn next_refit_after(refit_every: u64, t: u64) -> u64 {
-    t + refit_every.max(t / 8)
+/// every t/`refit_growth` later.
+pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64) -> u64 {
+    t + settings.refit_every.max(t / settings.refit_growth)
 }
 
 /// The reward table R̂ and delay pmf p̂ of (D1)–(D2), refitted as data comes in.
@@ -284,7 +284,7 @@ impl Deconvolver {
         let t = self.stats.t;
         if t >= self.next_refit {
             self.refit();
-            self.next_refit = next_refit_after(self.cfg.settings.refit_every, t);
+            self.next_refit = next_refit_after(&self.cfg.settings, t);
             refitted = true;
         }
         refitted
@@ -472,6 +472,7 @@ pub(crate) mod tests {
             pmf_prior: 0.0,
             pmf_smoothness: 0.0,
             refit_every: 1_000_000,
+            refit_growth: 8,
             decode_values: false,
             told_delay: None,
         };
