@@ -11,6 +11,16 @@
 //!
 //! The default is a fixed count: a pair is known once N(x) ≥ m = `optimism_visits`.
 //!
+//! *Planning the ε-greedy values* (`plan_exploration`; off by default). The agent follows
+//! the ε-greedy policy, whose random action is uniform over the actions, so the value it
+//! earns from s is (1 − ε) max_a Q(s, a) + ε mean_a Q(s, a); planned with it in place of
+//! max_a Q in (M1), the values prefer paths where a random action costs little (away
+//! from the walls, where both "up" and "left" still lead to the goal):
+//!
+//! ```text
+//! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) [ (1 − ε) max_a' Q(s', a') + ε mean_a' Q(s', a') ]   (M1′)
+//! ```
+//!
 //! *Exploration from confidence* (z = `optimism_confidence` > 0; off by default). A pair
 //! stays optimistic (R-max style, on top of ε-greedy) until the reward fit has settled
 //! its reward: the fit has found one there, or it would find one as large as the largest
@@ -49,7 +59,9 @@
 //! imprecise ([`crate::deconv::Deconvolver::median_se`]: a standard error above `probe_precision`
 //! steps and, on the probability scale, above [`PROBE_CDF_PRECISION`]), a probe falls
 //! due with probability `probe_rate` per step; a due probe is taken at the first step that
-//! is not ε-exploration in a state with an action known to keep the agent in place at a
+//! is not ε-exploration (`probe_steps = "greedy"`; `"exploring"`: the first step of
+//! ε-exploration, in place of its random action, a cheaper probe; `"any"`: either) in a
+//! state with an action known to keep the agent in place at a
 //! cost (known by (M2), or tried ≥ max(m, 1) times under the fixed count, never led
 //! elsewhere, R̂ < 0: a wall bump). The cost leaves at a time drawn at random and reaches
 //! the agent one delay later: a sample of the delay that the period does not alias.
