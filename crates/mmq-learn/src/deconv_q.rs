@@ -133,6 +133,7 @@ pub(crate) mod tests {
             pmf_smoothness: 0.0,
             refit_every: 4,
             refit_growth: 8,
+            pmf_rounds: 1,
             decode_values: false,
             told_delay: None,
         };

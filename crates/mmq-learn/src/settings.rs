@@ -180,6 +180,13 @@ pub struct DeconvSettings {
     /// refits 27 times in 150,000 steps instead of 45 and takes about 30 % less CPU time,
     /// but earned less on paper-9x9 and the maze (docs/performance.md).
     pub refit_growth: u64,
+    /// Rounds of the alternation per refit, in [1, 20]: p̂ given R̂, then R̂ given p̂. Both
+    /// starts (the previous p̂ and the uniform pmf) get one round; the better one then
+    /// gets `pmf_rounds` − 1 more. Default 1. One round leaves p̂ partway between its
+    /// start and the fit, and the uniform start wins most refits, so the delay median runs
+    /// high for tens of thousands of steps; 4 rounds halved its error on paper-9x9 under
+    /// the reward-first settings (docs/algorithms/deconv-model.md).
+    pub pmf_rounds: u32,
     /// Tells the learner the true delay distribution (a delay spec in steps such as
     /// `poisson:13`) instead of letting it estimate it: an ablation that measures what
     /// the estimate costs. Absent (the default): estimate it.
@@ -204,6 +211,7 @@ impl Default for DeconvSettings {
             pmf_smoothness: 0.0,
             refit_every: 250,
             refit_growth: 8,
+            pmf_rounds: 1,
             told_delay: None,
         }
     }
@@ -234,6 +242,13 @@ impl DeconvSettings {
                 "refit_growth",
                 0,
                 "use a divisor ≥ 1 of the step count, e.g. 8 (refits every t/8 steps)",
+            );
+        }
+        if !(1..=20).contains(&self.pmf_rounds) {
+            return bad(
+                "pmf_rounds",
+                self.pmf_rounds,
+                "use 1 to 20 rounds of the alternation per refit, e.g. 1",
             );
         }
         if self.max_delay > 1 << 16 {

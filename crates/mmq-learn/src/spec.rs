@@ -309,6 +309,9 @@ mod tests {
         m.deconv.refit_growth = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_growth"));
         m.deconv.refit_growth = 8;
+        m.deconv.pmf_rounds = 0;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_rounds"));
+        m.deconv.pmf_rounds = 1;
         m.explore.probe_rate = 1.5;
         let msg = e(&LearnerSettings::DeconvModel(m.clone()));
         assert!(msg.contains("probe_rate") && msg.contains("[0, 1]"), "{msg}");

@@ -333,7 +333,8 @@ impl Deconvolver {
     ///
     /// When estimating, a second alternation starts from the uniform pmf (a cold start)
     /// and the fit with the lower penalised objective (D2) is kept: an alternation that
-    /// locked onto a wrong delay early (or found no reward at all) gets out again.
+    /// locked onto a wrong delay early (or found no reward at all) gets out again. The
+    /// kept fit then gets `pmf_rounds` − 1 more rounds of p̂ given R̂ and R̂ given p̂.
     pub fn refit(&mut self) {
         Self::refit_all(std::slice::from_mut(self));
     }
@@ -382,6 +383,10 @@ impl Deconvolver {
                 for (d, w) in ds.iter_mut().zip(warm) {
                     (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
                 }
+            }
+            for _ in 1..ds[0].cfg.settings.pmf_rounds {
+                Self::fit_pmf_all(ds);
+                fit_all(ds);
             }
         }
         let joint = ds.iter().any(Deconvolver::joint_on);
@@ -473,6 +478,7 @@ pub(crate) mod tests {
             pmf_smoothness: 0.0,
             refit_every: 1_000_000,
             refit_growth: 8,
+            pmf_rounds: 1,
             decode_values: false,
             told_delay: None,
         };

@@ -617,6 +617,38 @@ mod tests {
         assert!((pmf_median(d.pmf()) - (2.5 + 0.4 / 0.6)).abs() < 0.01);
     }
 
+    /// More rounds per refit (`pmf_rounds`) carry one refit further along the alternation:
+    /// on the noise-free trace of `recovers_the_delay_pmf`, one refit with one round
+    /// leaves p̂ short of p (an L1 error of about 0.007), one with twelve rounds reaches it
+    /// (error below 10⁻⁵, the median exact to 10⁻³).
+    #[test]
+    fn more_rounds_converge_within_one_refit() {
+        let k = 8;
+        let p = vec![0.0, 0.0, 0.1, 0.6, 0.3, 0.0, 0.0, 0.0, 0.0];
+        let truth = [0.0, 10.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let fit = |rounds: u32| {
+            let mut c = cfg(k, None);
+            c.settings.pmf_rounds = rounds;
+            let mut d = Deconvolver::new(c, truth.len(), 1);
+            let mut rng = rng_from_seed(8);
+            let mut xs = Vec::new();
+            for t in 0..20_000 {
+                let x = rng.random_range(0..truth.len());
+                xs.push(x);
+                let r: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
+                d.observe(x, r);
+            }
+            d.refit();
+            let err: f64 = d.pmf().iter().zip(&p).map(|(a, b)| (a - b).abs()).sum();
+            (err, pmf_median(d.pmf()))
+        };
+        let (one, m1) = fit(1);
+        let (many, m12) = fit(12);
+        let want = 2.5 + 0.4 / 0.6;
+        assert!(one > 1e-3 && many < 1e-5, "L1 error: one round {one} (median {m1}), twelve {many}");
+        assert!((m12 - want).abs() < 1e-3, "median {m12} after twelve rounds, want {want}");
+    }
+
     /// ρ DᵀD for three lags and ρ = 2: the Hessian of ρ/2 [(p1 − p0)² + (p2 − p1)²].
     #[test]
     fn roughness_by_hand() {
