@@ -506,6 +506,19 @@ pub(crate) mod tests {
         }
     }
 
+    /// Feeds `d` `steps` pairs drawn at random from `truth`'s, each step delivering the
+    /// expected reward Σ_j p(j) R(x_{t−j}) (noise-free).
+    pub(crate) fn feed_expected(d: &mut Deconvolver, p: &[f64], truth: &[f64], steps: usize, seed: u64) {
+        let mut rng = rng_from_seed(seed);
+        let mut xs = Vec::new();
+        for t in 0..steps {
+            let x = rng.random_range(0..truth.len());
+            xs.push(x);
+            let r: f64 = (0..p.len().min(t + 1)).map(|j| p[j] * truth[xs[t - j]]).sum();
+            d.observe(x, r);
+        }
+    }
+
     /// Noise-free expected rewards: the fit recovers R exactly.
     #[test]
     fn recovers_rewards_from_expected_deliveries() {
@@ -513,14 +526,7 @@ pub(crate) mod tests {
         let p = vec![0.0, 0.1, 0.2, 0.4, 0.2, 0.1, 0.0];
         let truth = [0.0, 10.0, -1.0, 0.0, 3.0, 0.0, -2.0, 0.5];
         let mut d = Deconvolver::new(cfg(k, Some(p.clone())), truth.len(), 1);
-        let mut rng = rng_from_seed(7);
-        let mut xs = Vec::new();
-        for t in 0..5000 {
-            let x = rng.random_range(0..truth.len());
-            xs.push(x);
-            let r: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
-            d.observe(x, r);
-        }
+        feed_expected(&mut d, &p, &truth, 5000, 7);
         d.refit();
         for (x, &want) in truth.iter().enumerate() {
             assert!((d.reward(x) - want).abs() < 1e-9, "R̂({x}) = {} vs {want}", d.reward(x));

@@ -420,7 +420,7 @@ struct Predictions {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::deconv::tests::cfg;
+    use crate::deconv::tests::{cfg, feed_expected};
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
 
@@ -597,14 +597,7 @@ mod tests {
         let p = vec![0.0, 0.0, 0.1, 0.6, 0.3, 0.0, 0.0, 0.0, 0.0];
         let truth = [0.0, 10.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         let mut d = Deconvolver::new(cfg(k, None), truth.len(), 1);
-        let mut rng = rng_from_seed(8);
-        let mut xs = Vec::new();
-        for t in 0..20_000 {
-            let x = rng.random_range(0..truth.len());
-            xs.push(x);
-            let r: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
-            d.observe(x, r);
-        }
+        feed_expected(&mut d, &p, &truth, 20_000, 8);
         for _ in 0..50 {
             d.refit();
         }
@@ -630,14 +623,7 @@ mod tests {
             let mut c = cfg(k, None);
             c.settings.pmf_rounds = rounds;
             let mut d = Deconvolver::new(c, truth.len(), 1);
-            let mut rng = rng_from_seed(8);
-            let mut xs = Vec::new();
-            for t in 0..20_000 {
-                let x = rng.random_range(0..truth.len());
-                xs.push(x);
-                let r: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
-                d.observe(x, r);
-            }
+            feed_expected(&mut d, &p, &truth, 20_000, 8);
             d.refit();
             let err: f64 = d.pmf().iter().zip(&p).map(|(a, b)| (a - b).abs()).sum();
             (err, pmf_median(d.pmf()))
