@@ -68,11 +68,7 @@ fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
             "--set `{kv}`: not KEY=VALUE; write e.g. --set optimism_confidence=2"
         )));
     };
-    let value = toml::from_str::<toml::Table>(&format!("v = {value}"))
-        .ok()
-        .and_then(|mut t| t.remove("v"))
-        .unwrap_or_else(|| toml::Value::String(value.to_string()));
-    Ok((key, value))
+    Ok((key, mmq_core::text_value::value_from_text(value)))
 }
 
 /// Runs `mmq run`.

@@ -15,6 +15,7 @@ pub mod optimum;
 pub mod seed;
 pub mod shipped;
 pub mod stats;
+pub mod text_value;
 pub mod world;
 
 pub use ceiling::{Ceiling, epsilon_soft_ceiling};

@@ -13,11 +13,7 @@ use crate::config::{NOISE_FIELDS, RobotConfig, RobotError, RobotTable, TABLE_FIE
 use crate::profile::{REALISTIC_FIELDS, RealisticTable};
 
 fn parse_value(raw: &str) -> Value {
-    let v = match toml::from_str::<Table>(&format!("v = {raw}")) {
-        Ok(mut t) => t.remove("v").unwrap_or_else(|| Value::String(raw.to_string())),
-        Err(_) => Value::String(raw.to_string()),
-    };
-    match v {
+    match mmq_core::text_value::value_from_text(raw) {
         Value::Integer(i) => Value::Float(i as f64),
         v => v,
     }
