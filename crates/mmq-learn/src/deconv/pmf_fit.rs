@@ -365,12 +365,9 @@ impl Deconvolver {
     /// Each sum is taken over t in order, bit for bit as a pass over every step.
     fn weighted_stats(&self, pred: &Predictions, p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
         let k_n = self.cfg.settings.max_delay + 1;
-        let delta = 0.25 / k_n as f64;
-        let v0 = 0.01 * rmax * rmax;
+        let (var, v0) = delivery_variance(p, rmax);
         let mut a = vec![0.0; k_n * k_n];
         let mut c = vec![0.0; k_n];
-        // The variance factor of each lag.
-        let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
         let (steps, ys) = (&pred.steps, &pred.y);
         // The lags t − u of the predictions in the window of t (at most K + 1 of them).
         let mut kbuf = vec![0usize; k_n];
@@ -406,6 +403,14 @@ impl Deconvolver {
     }
 }
 
+/// The variance model of a delivery under p (K + 1 = p.len() lags): its factor
+/// p(k)(1 − p(k)) + δ for each lag, δ = 1/(4(K + 1)), and the floor v₀ = 0.01 r²_max, so
+/// that a delivery of predictions y has the variance Σ_k factor(k) y²_{t−k} + v₀.
+fn delivery_variance(p: &[f64], rmax: f64) -> (Vec<f64>, f64) {
+    let delta = 0.25 / p.len() as f64;
+    (p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect(), 0.01 * rmax * rmax)
+}
+
 /// The steps of the stored history whose prediction y_t = R̂(x_t) is not zero, in step
 /// order, and those predictions.
 #[derive(Debug, Default)]
@@ -429,12 +434,9 @@ mod tests {
         /// non-zero predictions among the last K + 1.
         fn weighted_stats_reference(&self, r: &[f64], p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
             let k_n = self.cfg.settings.max_delay + 1;
-            let delta = 0.25 / k_n as f64;
-            let v0 = 0.01 * rmax * rmax;
+            let (var, v0) = delivery_variance(p, rmax);
             let mut a = vec![0.0; k_n * k_n];
             let mut c = vec![0.0; k_n];
-            // The variance factor of each lag.
-            let var: Vec<f64> = p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect();
             // The steps of the last K + 1 with y ≠ 0, oldest first: (step, y).
             let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
             let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
