@@ -32,6 +32,7 @@ use std::collections::HashMap;
 use crate::Diagnostics;
 use crate::Table;
 use crate::deconv::{DeconvConfig, Deconvolver, next_refit_after};
+use crate::surprise::Surprise;
 
 /// At most this many reward values.
 pub const MAX_VALUES: usize = 4;
@@ -138,11 +139,18 @@ pub struct ValueDeconvolver {
     rebuilds: u64,
     /// The largest |delivered reward| so far.
     max_delivery: f64,
+    /// The test that calls a refit when the deliveries fall short (`refit_on_surprise`
+    /// > 0), and the refits it called.
+    surprise: Option<Surprise>,
+    surprise_refits: u64,
 }
 
 impl ValueDeconvolver {
     /// A reward model over `num_states` × `num_actions` pairs.
     pub fn new(cfg: DeconvConfig, num_states: usize, num_actions: usize) -> Self {
+        let st = &cfg.settings;
+        let surprise = (st.refit_on_surprise > 0.0)
+            .then(|| Surprise::new(st.refit_on_surprise, st.max_delay, st.refit_every));
         Self {
             parts: vec![Deconvolver::new(cfg.clone(), num_states, num_actions)],
             cfg,
@@ -158,6 +166,8 @@ impl ValueDeconvolver {
             next_refit: 0,
             rebuilds: 0,
             max_delivery: 0.0,
+            surprise,
+            surprise_refits: 0,
         }
     }
 
@@ -229,6 +239,41 @@ impl ValueDeconvolver {
     /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
     /// Refits when due; returns true when it did.
     pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
+        // The model's prediction of this delivery, before the step can change the model.
+        let predicted = match self.surprise.take() {
+            Some(mut m) => {
+                let p = m.take(x, self.pmf(), |y| self.reward(y));
+                self.surprise = Some(m);
+                p
+            }
+            None => 0.0,
+        };
+        let refitted = self.observe_step(x, next_state, reward);
+        let Some(m) = self.surprise.as_mut() else {
+            return refitted;
+        };
+        if refitted {
+            m.restart();
+            return true;
+        }
+        let sigma2: f64 = self.parts.iter().map(Deconvolver::noise_variance).sum();
+        if !m.residual(reward - predicted, sigma2) {
+            return false;
+        }
+        m.restart();
+        self.surprise_refits += 1;
+        if self.values.is_empty() {
+            // The single deconvolver keeps its own schedule; a refit here comes on top.
+            self.parts[0].refit();
+            self.update_values();
+        } else {
+            self.refit();
+        }
+        true
+    }
+
+    /// [`Self::observe_transition`] without the test (S).
+    fn observe_step(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
         self.max_delivery = self.max_delivery.max(reward.abs());
         if !self.cfg.settings.decode_values {
             return self.parts[0].observe_transition(x, next_state, reward);
@@ -351,6 +396,9 @@ impl ValueDeconvolver {
         if self.cfg.settings.decode_values {
             d.figures.push(("reward/values_found", self.values.len() as f64));
             d.figures.push(("reward/value_rebuilds", self.rebuilds as f64));
+        }
+        if self.surprise.is_some() {
+            d.figures.push(("delay/surprise_refits", self.surprise_refits as f64));
             d.reward_values.clone_from(&self.values);
         }
         d
@@ -359,6 +407,9 @@ impl ValueDeconvolver {
     /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
     pub fn reset_history(&mut self) {
         self.parts.iter_mut().for_each(Deconvolver::reset_history);
+        if let Some(m) = self.surprise.as_mut() {
+            m.new_run();
+        }
         if self.cfg.settings.decode_values {
             self.runs.push(self.hist.len());
         }
@@ -401,6 +452,42 @@ mod tests {
         (s.successor_groups, s.pmf_weighted, s.pmf_significance, s.pmf_prior) = (true, true, 1.0, 5.0);
         c.settings.decode_values = true;
         c
+    }
+
+    /// A reward that stops. One state, two actions taken in turn, the delay told to be 1
+    /// step; action 0 pays +4 until step 400, then nothing. Scheduled refits (every 50
+    /// steps, growth 1) come at 50, 100, 200, 400 and 800. Without the test (S), R̂(0) stays
+    /// 4 after step 400; with it, σ̂² = 0 at the refit at 400 (the fit is exact), so the
+    /// shortfall calls a refit as soon as `refit_every` = 50 steps have passed: at 450,
+    /// 500, 550 and 600. At 600, R̂(0) is least squares over all 300 visits, 200 of them
+    /// paid: 800/300.
+    #[test]
+    fn a_reward_that_stops_is_refitted_on_surprise_by_hand() {
+        let run = |z: f64| {
+            let mut c = cfg(1, Some(vec![0.0, 1.0]));
+            (c.settings.refit_every, c.settings.refit_growth, c.settings.refit_on_surprise) = (50, 1, z);
+            let mut d = ValueDeconvolver::new(c, 1, 2);
+            let mut pending = 0.0;
+            let mut refit_at = Vec::new();
+            for t in 0..600 {
+                let x = t % 2;
+                if d.observe_transition(x, 0, pending) {
+                    refit_at.push(t + 1);
+                }
+                pending = if x == 0 && t < 400 { 4.0 } else { 0.0 };
+            }
+            let surprised =
+                d.diagnostics().figures.iter().find(|f| f.0 == "delay/surprise_refits").map(|f| f.1);
+            (d.reward(0), refit_at, surprised)
+        };
+        let (r, at, surprised) = run(0.0);
+        assert_eq!(at, [50, 100, 200, 400]);
+        assert!((r - 4.0).abs() < 1e-9, "R̂(0) = {r}");
+        assert_eq!(surprised, None);
+        let (r, at, surprised) = run(3.0);
+        assert_eq!(at, [50, 100, 200, 400, 450, 500, 550, 600]);
+        assert!((r - 800.0 / 300.0).abs() < 1e-9, "R̂(0) = {r}");
+        assert_eq!(surprised, Some(4.0));
     }
 
     /// With one reward value there is nothing to decode: every step, R̂ and p̂ are those of

@@ -134,6 +134,7 @@ pub(crate) mod tests {
             refit_every: 4,
             refit_growth: 8,
             pmf_rounds: 1,
+            refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,
         };

@@ -34,6 +34,7 @@ pub mod qlearning;
 pub mod sarsa_lambda;
 pub mod settings;
 pub mod spec;
+mod surprise;
 pub mod table;
 
 pub use diagnostics::{DelayEstimate, Diagnostics};

@@ -187,6 +187,12 @@ pub struct DeconvSettings {
     /// high for tens of thousands of steps; 4 rounds halved its error on paper-9x9 under
     /// the reward-first settings (docs/algorithms/deconv-model.md).
     pub pmf_rounds: u32,
+    /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
+    /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
+    /// is none, which the agent then seeks; a cost put on the moves around a bump, which
+    /// then looks free) ([`crate::surprise`]). 0 (the default): refits only on the
+    /// schedule of `refit_every` and `refit_growth`.
+    pub refit_on_surprise: f64,
     /// Tells the learner the true delay distribution (a delay spec in steps such as
     /// `poisson:13`) instead of letting it estimate it: an ablation that measures what
     /// the estimate costs. Absent (the default): estimate it.
@@ -212,6 +218,7 @@ impl Default for DeconvSettings {
             refit_every: 250,
             refit_growth: 8,
             pmf_rounds: 1,
+            refit_on_surprise: 0.0,
             told_delay: None,
         }
     }
@@ -220,7 +227,7 @@ impl Default for DeconvSettings {
 impl DeconvSettings {
     fn validate(&self) -> Result<(), LearnError> {
         // Finite and ≥ 0, checked in this order (the first failing field is reported).
-        let non_negative: [(&'static str, f64, &'static str); 7] = [
+        let non_negative: [(&'static str, f64, &'static str); 8] = [
             ("reward_prior", self.reward_prior, "use a prior strength ≥ 0, e.g. 1"),
             ("lasso", self.lasso, "use an L1 penalty ≥ 0 in reward units, e.g. 0.1"),
             ("significance", self.significance, "use a multiple of the universal threshold ≥ 0, e.g. 1"),
@@ -228,6 +235,11 @@ impl DeconvSettings {
             ("pmf_significance", self.pmf_significance, "use a number of standard errors ≥ 0, e.g. 1"),
             ("pmf_prior", self.pmf_prior, "use a prior weight ≥ 0 in visits, e.g. 5"),
             ("pmf_smoothness", self.pmf_smoothness, "use a penalty ≥ 0 in visits, e.g. 10 (0: off)"),
+            (
+                "refit_on_surprise",
+                self.refit_on_surprise,
+                "use a number of standard errors ≥ 0, e.g. 3 (0: off)",
+            ),
         ];
         for (field, value, accepted) in non_negative {
             if !(value.is_finite() && value >= 0.0) {

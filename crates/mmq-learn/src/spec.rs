@@ -312,6 +312,9 @@ mod tests {
         m.deconv.pmf_rounds = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_rounds"));
         m.deconv.pmf_rounds = 1;
+        m.deconv.refit_on_surprise = f64::NAN;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_on_surprise"));
+        m.deconv.refit_on_surprise = 0.0;
         m.explore.probe_rate = 1.5;
         let msg = e(&LearnerSettings::DeconvModel(m.clone()));
         assert!(msg.contains("probe_rate") && msg.contains("[0, 1]"), "{msg}");
