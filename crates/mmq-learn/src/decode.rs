@@ -396,10 +396,10 @@ impl ValueDeconvolver {
         if self.cfg.settings.decode_values {
             d.figures.push(("reward/values_found", self.values.len() as f64));
             d.figures.push(("reward/value_rebuilds", self.rebuilds as f64));
+            d.reward_values.clone_from(&self.values);
         }
         if self.surprise.is_some() {
             d.figures.push(("delay/surprise_refits", self.surprise_refits as f64));
-            d.reward_values.clone_from(&self.values);
         }
         d
     }

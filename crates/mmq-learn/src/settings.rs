@@ -190,7 +190,7 @@ pub struct DeconvSettings {
     /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
     /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
     /// is none, which the agent then seeks; a cost put on the moves around a bump, which
-    /// then looks free) ([`crate::surprise`]). 0 (the default): refits only on the
+    /// then looks free) (`surprise.rs`, (S)). 0 (the default): refits only on the
     /// schedule of `refit_every` and `refit_growth`.
     pub refit_on_surprise: f64,
     /// Tells the learner the true delay distribution (a delay spec in steps such as
