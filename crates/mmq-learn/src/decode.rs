@@ -32,7 +32,7 @@ use std::collections::HashMap;
 use crate::Diagnostics;
 use crate::Table;
 use crate::deconv::{DeconvConfig, Deconvolver, next_refit_after};
-use crate::surprise::Surprise;
+use crate::surprise::{self, Surprise};
 
 /// At most this many reward values.
 pub const MAX_VALUES: usize = 4;
@@ -207,8 +207,12 @@ impl ValueDeconvolver {
         if v <= 0.0 {
             return 0.0;
         }
-        let sigma2: f64 = self.parts.iter().map(Deconvolver::noise_variance).sum();
-        sigma2 / (v * v)
+        self.noise_variance() / (v * v)
+    }
+
+    /// σ̂²: the reward fit's residual variance per step, summed over the per-value fits.
+    fn noise_variance(&self) -> f64 {
+        self.parts.iter().map(Deconvolver::noise_variance).sum()
     }
 
     /// The reward fit's significance threshold in standard errors, over every pair of the
@@ -239,36 +243,30 @@ impl ValueDeconvolver {
     /// One step: pair `x` was taken, led to `next_state`, and `reward` was delivered.
     /// Refits when due; returns true when it did.
     pub fn observe_transition(&mut self, x: usize, next_state: usize, reward: f64) -> bool {
-        // The model's prediction of this delivery, before the step can change the model.
-        let predicted = match self.surprise.take() {
-            Some(mut m) => {
-                let p = m.take(x, self.pmf(), |y| self.reward(y));
-                self.surprise = Some(m);
-                p
-            }
-            None => 0.0,
-        };
         let refitted = self.observe_step(x, next_state, reward);
-        let Some(m) = self.surprise.as_mut() else {
+        if self.surprise.is_none() {
             return refitted;
-        };
+        }
         if refitted {
-            m.restart();
+            if let Some(m) = self.surprise.as_mut() {
+                m.restart();
+            }
             return true;
         }
-        let sigma2: f64 = self.parts.iter().map(Deconvolver::noise_variance).sum();
+        // No refit: R̂ and p̂ are those the delivery was due under.
+        let predicted = surprise::predicted(self.pmf(), self.parts[0].recent_pairs(), |y| self.reward(y));
+        let sigma2 = self.noise_variance();
+        let Some(m) = self.surprise.as_mut() else {
+            return false;
+        };
         if !m.residual(reward - predicted, sigma2) {
             return false;
         }
         m.restart();
         self.surprise_refits += 1;
-        if self.values.is_empty() {
-            // The single deconvolver keeps its own schedule; a refit here comes on top.
-            self.parts[0].refit();
-            self.update_values();
-        } else {
-            self.refit();
-        }
+        // With the single deconvolver of the summed deliveries (before two values are
+        // found) this comes on top of that deconvolver's own schedule.
+        self.refit();
         true
     }
 
@@ -408,7 +406,7 @@ impl ValueDeconvolver {
     pub fn reset_history(&mut self) {
         self.parts.iter_mut().for_each(Deconvolver::reset_history);
         if let Some(m) = self.surprise.as_mut() {
-            m.new_run();
+            m.restart();
         }
         if self.cfg.settings.decode_values {
             self.runs.push(self.hist.len());

@@ -22,15 +22,21 @@
 //! steps either, so that a model with a lasting small bias (a cost shrunk towards zero)
 //! refits at most as often as the early schedule does.
 
+/// (D1)'s prediction of a delivery, Σ_k p̂(k) R̂(x_{t−k}), over `recent`: the pairs of
+/// the current run, the latest first (`reward` gives R̂).
+pub(crate) fn predicted(
+    pmf: &[f64],
+    recent: impl Iterator<Item = usize>,
+    reward: impl Fn(usize) -> f64,
+) -> f64 {
+    pmf.iter().zip(recent).fold(0.0, |sum, (&p, x)| sum + p * reward(x))
+}
+
 /// The test (S) over the steps since the last refit.
 #[derive(Clone, Debug)]
 pub(crate) struct Surprise {
     /// z > 0.
     z: f64,
-    /// The last K + 1 pairs, a ring (None: not yet taken in this run).
-    recent: Vec<Option<u32>>,
-    /// Where the next pair goes in `recent`.
-    head: usize,
     /// The fewest steps since the last refit before a test, max(K + 1, `refit_every`).
     min_steps: u64,
     /// S_n and n.
@@ -43,22 +49,7 @@ impl Surprise {
     /// steps have passed since the last refit (and K + 1).
     pub(crate) fn new(z: f64, max_delay: usize, refit_every: u64) -> Self {
         let min_steps = refit_every.max(max_delay as u64 + 1);
-        Self { z, recent: vec![None; max_delay + 1], head: 0, min_steps, sum: 0.0, n: 0 }
-    }
-
-    /// Pair `x` was taken; returns the delivery (D1) predicts for this step,
-    /// Σ_k p̂(k) R̂(x_{t−k}) over the pairs of this run (`reward` gives R̂).
-    pub(crate) fn take(&mut self, x: usize, pmf: &[f64], reward: impl Fn(usize) -> f64) -> f64 {
-        let len = self.recent.len();
-        self.recent[self.head] = Some(x as u32);
-        let mut predicted = 0.0;
-        for (k, &p) in pmf.iter().enumerate().take(len) {
-            if let Some(y) = self.recent[(self.head + len - k) % len] {
-                predicted += p * reward(y as usize);
-            }
-        }
-        self.head = (self.head + 1) % len;
-        predicted
+        Self { z, min_steps, sum: 0.0, n: 0 }
     }
 
     /// Adds the residual e = r − predicted of one step under residual variance `sigma2`
@@ -69,16 +60,10 @@ impl Surprise {
         self.n >= self.min_steps && self.sum < -self.z * (sigma2.max(0.0) * self.n as f64).sqrt()
     }
 
-    /// A refit happened: the test starts again under the new model.
+    /// A refit happened, or a new run started: the test starts again.
     pub(crate) fn restart(&mut self) {
         self.sum = 0.0;
         self.n = 0;
-    }
-
-    /// A new run starts: the last pairs' deliveries are lost with the old one.
-    pub(crate) fn new_run(&mut self) {
-        self.recent.iter_mut().for_each(|x| *x = None);
-        self.restart();
     }
 }
 
@@ -95,19 +80,19 @@ mod tests {
         let pmf = [0.5, 0.5];
         let r = |x: usize| [2.0, 0.0][x];
         let mut s = Surprise::new(2.0, 1, 1);
-        let p1 = s.take(0, &pmf, r);
+        let p1 = predicted(&pmf, [0].into_iter(), r);
         assert_eq!(p1, 1.0);
         assert!(!s.residual(0.0 - p1, 1.0));
-        let p2 = s.take(0, &pmf, r);
+        let p2 = predicted(&pmf, [0, 0].into_iter(), r);
         assert_eq!(p2, 2.0);
         assert!(s.residual(0.0 - p2, 1.0));
         // With σ̂² = 4 the threshold at n = 2 is −2·2·√2 = −5.66: not yet; at n = 3,
         // −5 against −6.93: not yet either; at n = 4, −7 < −8: no; the sum falls by 2 a
         // step and the threshold by about 1.1, so n = 5 (−9 against −8.94) calls it.
         let mut s = Surprise::new(2.0, 1, 1);
-        let calls: Vec<bool> = (0..6)
-            .map(|_| {
-                let p = s.take(0, &pmf, r);
+        let calls: Vec<bool> = (1..=6)
+            .map(|t| {
+                let p = predicted(&pmf, std::iter::repeat_n(0, t), r);
                 s.residual(-p, 4.0)
             })
             .collect();
@@ -120,7 +105,7 @@ mod tests {
         let pmf = [0.0, 1.0];
         let mut s = Surprise::new(1.0, 1, 1);
         for _ in 0..100 {
-            let p = s.take(1, &pmf, |_| 0.0);
+            let p = predicted(&pmf, [1, 1].into_iter(), |_| 0.0);
             assert!(!s.residual(10.0 - p, 1.0));
         }
     }
@@ -133,15 +118,14 @@ mod tests {
         assert_eq!(calls, [false, false, false, false, true, true]);
     }
 
-    /// A new run forgets the pairs in flight; a restart forgets the sum.
+    /// The prediction sees only the pairs it is given (a new run's: the deconvolver's
+    /// `recent_pairs`); a restart forgets the sum.
     #[test]
-    fn a_new_run_forgets_the_pairs_in_flight() {
+    fn the_prediction_sees_only_this_runs_pairs_and_a_restart_forgets_the_sum() {
         let pmf = [0.0, 1.0];
         let mut s = Surprise::new(1.0, 1, 1);
-        assert_eq!(s.take(0, &pmf, |_| 3.0), 0.0);
-        assert_eq!(s.take(0, &pmf, |_| 3.0), 3.0);
-        s.new_run();
-        assert_eq!(s.take(0, &pmf, |_| 3.0), 0.0);
+        assert_eq!(predicted(&pmf, [0].into_iter(), |_| 3.0), 0.0);
+        assert_eq!(predicted(&pmf, [0, 0].into_iter(), |_| 3.0), 3.0);
         assert!(!s.residual(-100.0, 1.0));
         assert!(s.residual(-100.0, 1.0));
         s.restart();

@@ -239,6 +239,13 @@ impl Deconvolver {
         self.stats.t
     }
 
+    /// The pairs of the current run's last K + 1 steps, the latest first (lag 0, 1, …).
+    pub(crate) fn recent_pairs(&self) -> impl Iterator<Item = usize> + '_ {
+        let st = &self.stats;
+        let n = (st.t - st.start).min(self.cfg.settings.max_delay as u64 + 1);
+        (0..n).map(move |k| st.pairs[st.past(st.t - 1 - k)] as usize)
+    }
+
     /// Bytes held by the co-occurrence counts now (0 for a deconvolver that uses
     /// another's), and the distinct (pair, pair, lag) triples among them.
     pub fn count_bytes(&self) -> (usize, usize) {
@@ -505,6 +512,24 @@ pub(crate) mod tests {
                 assert!((d.reward(x) - w).abs() < 1e-9, "sign {sign}: R̂ = {:?}", d.rewards());
             }
         }
+    }
+
+    /// The pairs of the current run's last K + 1 steps, latest first: capped at K + 1 = 2,
+    /// and empty after a new run starts (the pairs in flight are forgotten).
+    #[test]
+    fn recent_pairs_are_this_runs_last_k_plus_one() {
+        let mut d = Deconvolver::new(cfg(1, Some(vec![0.5, 0.5])), 3, 1);
+        let recent = |d: &Deconvolver| d.recent_pairs().collect::<Vec<_>>();
+        assert!(recent(&d).is_empty());
+        d.observe_transition(2, 0, 0.0);
+        assert_eq!(recent(&d), [2]);
+        d.observe_transition(0, 1, 0.0);
+        d.observe_transition(1, 2, 0.0);
+        assert_eq!(recent(&d), [1, 0]);
+        d.reset_history();
+        assert!(recent(&d).is_empty());
+        d.observe_transition(0, 1, 0.0);
+        assert_eq!(recent(&d), [0]);
     }
 
     /// Feeds `d` `steps` pairs drawn at random from `truth`'s, each step delivering the
