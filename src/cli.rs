@@ -121,7 +121,7 @@ pub struct RunArgs {
     #[arg(long)]
     pub lambda_hat: Option<usize>,
     /// Any other setting of the learner, as KEY=VALUE (repeatable), e.g.
-    /// --set optimism_confidence=2 --set told_delay=poisson:13. The value is read as TOML
+    /// --set pmf_rounds=2 --set told_delay=poisson:13. The value is read as TOML
     /// (a number, true/false), else as text. A setting the learner lacks is refused by
     /// name; each learner's settings are in its page of docs/algorithms/.
     #[arg(long = "set", value_name = "KEY=VALUE")]

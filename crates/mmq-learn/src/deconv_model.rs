@@ -9,9 +9,12 @@
 //! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) max_a' Q(s', a')  otherwise          (M1)
 //! ```
 //!
-//! The default is a fixed count: a pair is known once N(x) ≥ m = `optimism_visits`.
+//! [`DeconvModel::new`] builds the plain learner: a pair is known once N(x) ≥ m =
+//! `optimism_visits`, and it plans with (M1). The settings of `deconv-model`
+//! ([`crate::settings::DeconvModelSettings`]) turn on, by default, (M1′) and (M2) below
+//! ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`]).
 //!
-//! *Planning the ε-greedy values* (`plan_exploration`; off by default). The agent follows
+//! *Planning the ε-greedy values* (`plan_exploration`). The agent follows
 //! the ε-greedy policy, whose random action is uniform over the actions, so the value it
 //! earns from s is (1 − ε) max_a Q(s, a) + ε mean_a Q(s, a); planned with it in place of
 //! max_a Q in (M1), the values prefer paths where a random action costs little (away
@@ -21,7 +24,7 @@
 //! Q(s, a) = R̂(s, a) + γ Σ_s' P̂(s' | s, a) [ (1 − ε) max_a' Q(s', a') + ε mean_a' Q(s', a') ]   (M1′)
 //! ```
 //!
-//! *Exploration from confidence* (z = `optimism_confidence` > 0; off by default). A pair
+//! *Exploration from confidence* (z = `optimism_confidence` > 0; 0: the fixed count). A pair
 //! stays optimistic (R-max style, on top of ε-greedy) until the reward fit has settled
 //! its reward: the fit has found one there, or it would find one as large as the largest
 //! in the world, with z standard errors to spare beyond its own significance threshold.

@@ -172,7 +172,8 @@ pub struct DeconvSettings {
     /// delays k and k + P by a regular goal period P.
     pub pmf_smoothness: f64,
     /// Steps between two refits of R̂ and the delay pmf early on (≥ 1); later refits
-    /// come every max(refit_every, t/refit_growth) steps.
+    /// come every max(refit_every, t/refit_growth) steps. Default 250 (`deconv-model`:
+    /// 100).
     pub refit_every: u64,
     /// g ≥ 1: once t/g exceeds `refit_every`, the refit after one at step t comes at
     /// t + t/g, so that the number of refits grows with the logarithm of the run's length
@@ -184,14 +185,14 @@ pub struct DeconvSettings {
     /// starts (the previous p̂ and the uniform pmf) get one round; the better one then
     /// gets `pmf_rounds` − 1 more. Default 1. One round leaves p̂ partway between its
     /// start and the fit, and the uniform start wins most refits, so the delay median runs
-    /// high for tens of thousands of steps; 4 rounds halved its error on paper-9x9 under
-    /// the reward-first settings (docs/algorithms/deconv-model.md).
+    /// high for tens of thousands of steps; 4 rounds (`deconv-model`'s default) halved its
+    /// error on paper-9x9 under the reward-first settings (docs/algorithms/deconv-model.md).
     pub pmf_rounds: u32,
     /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
     /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
     /// is none, which the agent then seeks; a cost put on the moves around a bump, which
-    /// then looks free) (`surprise.rs`, (S)). 0 (the default): refits only on the
-    /// schedule of `refit_every` and `refit_growth`.
+    /// then looks free) (`surprise.rs`, (S)). 0 (the default; `deconv-model`: 3): refits
+    /// only on the schedule of `refit_every` and `refit_growth`.
     pub refit_on_surprise: f64,
     /// Tells the learner the true delay distribution (a delay spec in steps such as
     /// `poisson:13`) instead of letting it estimate it: an ablation that measures what
@@ -336,7 +337,7 @@ impl Default for DeconvQSettings {
 pub struct ExploreSettings {
     /// A pair tried fewer times than this keeps its optimistic value q0 (R-max style
     /// exploration); 0 plans with every pair's estimate at once. Default 10. Used by
-    /// `deconv-model-time`, and by `deconv-model` unless `optimism_confidence` > 0.
+    /// `deconv-model-time`, and by `deconv-model` when `optimism_confidence` is 0.
     pub optimism_visits: u32,
     /// Probability per step, in [0, 1], that a *delay probe* falls due while the median
     /// of the delay estimate has a standard error above `probe_precision`; a due probe is
@@ -348,8 +349,9 @@ pub struct ExploreSettings {
     /// this many steps (`deconv-model-time`: bins) ([`crate::deconv::Deconvolver::median_se`]; > 0).
     pub probe_precision: f64,
     /// The steps at which a due probe is taken: `"greedy"` (a step that is not
-    /// ε-exploration; the default), `"exploring"` (a step of ε-exploration, in place of
-    /// its random action) or `"any"`.
+    /// ε-exploration; the default of `deconv-model-time`), `"exploring"` (a step of
+    /// ε-exploration, in place of its random action) or `"any"` (`deconv-model`'s
+    /// default).
     pub probe_steps: crate::deconv_model::ProbeSteps,
 }
 
@@ -389,8 +391,15 @@ impl ExploreSettings {
 }
 
 /// Settings of `deconv-model`.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
+///
+/// Its defaults ([`Default`]) put the reward first: exploration from confidence (z = 2),
+/// delay probes on any step, refits every 100 steps early, four rounds of the
+/// alternation per refit, refits on surprise (z = 3) and planning the ε-greedy policy's
+/// values (docs/algorithms/deconv-model.md, "Reward first"). A setting that a
+/// configuration file does not give reads as off ([`Self::when_absent`]): a recording
+/// made before a setting existed then replays as it ran.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default = "DeconvModelSettings::when_absent", deny_unknown_fields)]
 pub struct DeconvModelSettings {
     /// The deconvolution.
     #[serde(flatten)]
@@ -401,15 +410,42 @@ pub struct DeconvModelSettings {
     /// z ≥ 0, exploration from confidence: a pair keeps its optimistic value q0 (R-max
     /// style) until the reward fit has found a reward there, or would find one as large as
     /// the largest found with z standard errors to spare beyond its significance threshold
-    /// ([`crate::deconv_model`], (M2)); 2 is the measured setting. Default 0 (off): the
-    /// fixed count `optimism_visits` (docs/algorithms/deconv-model.md, "Exploration from
-    /// confidence", says what each costs).
+    /// ([`crate::deconv_model`], (M2)). Default 2; 0: the fixed count `optimism_visits`
+    /// (docs/algorithms/deconv-model.md, "Exploration from confidence", says what each
+    /// costs).
     pub optimism_confidence: f64,
     /// Plan the values of the ε-greedy policy the agent follows,
     /// V(s) = (1 − ε) max_a Q + ε mean_a Q ([`crate::deconv_model`], (M1′)), so that it
-    /// prefers paths where a random action costs little; false (the default):
+    /// prefers paths where a random action costs little (the default); false:
     /// V(s) = max_a Q.
     pub plan_exploration: bool,
+}
+
+impl Default for DeconvModelSettings {
+    fn default() -> Self {
+        let off = Self::when_absent();
+        Self {
+            deconv: DeconvSettings { refit_every: 100, pmf_rounds: 4, refit_on_surprise: 3.0, ..off.deconv },
+            explore: ExploreSettings { probe_steps: crate::deconv_model::ProbeSteps::Any, ..off.explore },
+            optimism_confidence: 2.0,
+            plan_exploration: true,
+        }
+    }
+}
+
+impl DeconvModelSettings {
+    /// Every reward-first setting off: the fixed count `optimism_visits`, probes on greedy
+    /// steps, refits every 250 steps early, one round, no refits on surprise, planning
+    /// V(s) = max_a Q. The value of a setting a configuration file does not give, and the
+    /// construction the "visit-count" rows of the docs measure.
+    pub fn when_absent() -> Self {
+        Self {
+            deconv: DeconvSettings::default(),
+            explore: ExploreSettings::default(),
+            optimism_confidence: 0.0,
+            plan_exploration: false,
+        }
+    }
 }
 
 /// Settings of `deconv-model-time`.

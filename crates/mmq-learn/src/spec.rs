@@ -420,4 +420,38 @@ mod tests {
         }
         assert_eq!(parse("kind = \"fixed\"\nlambda_hat = 7\n").unwrap().settings.describe(), ", λ̂ = 7");
     }
+
+    /// `deconv-model`'s defaults put the reward first, while a configuration that does not
+    /// give a setting reads it as off: a recording made before the setting existed replays
+    /// as it ran, and one that gives it (every recording now lists them all) keeps it.
+    #[test]
+    fn deconv_model_defaults_put_the_reward_first_and_absent_settings_read_as_off() {
+        use crate::deconv_model::ProbeSteps;
+        let LearnerSettings::DeconvModel(d) = LearnerSettings::of(LearnerKind::DeconvModel) else {
+            panic!("not deconv-model")
+        };
+        assert_eq!((d.optimism_confidence, d.plan_exploration), (2.0, true));
+        assert_eq!((d.deconv.refit_every, d.deconv.pmf_rounds, d.deconv.refit_on_surprise), (100, 4, 3.0));
+        assert_eq!(d.explore.probe_steps, ProbeSteps::Any);
+        // The rest is the shared deconvolution's and exploration's defaults.
+        assert_eq!(d.deconv.lasso, 0.1);
+        assert_eq!(d.explore.optimism_visits, 10);
+        // deconv-q and deconv-model-time keep the schedule and the single round.
+        let LearnerSettings::DeconvQ(q) = LearnerSettings::of(LearnerKind::DeconvQ) else { panic!() };
+        assert_eq!((q.deconv.refit_every, q.deconv.pmf_rounds, q.deconv.refit_on_surprise), (250, 1, 0.0));
+        let params = "[params]\nalpha = 0.1\ngamma = 0.9\nepsilon = 0.01\nq0 = 20.0\n";
+        let parse = |head: &str| toml::from_str::<LearnerSpec>(&format!("{head}{params}")).unwrap().settings;
+        let LearnerSettings::DeconvModel(absent) = parse("kind = \"deconv-model\"\nlasso = 0.2\n") else {
+            panic!()
+        };
+        let off = DeconvModelSettings::when_absent();
+        let lasso = crate::settings::DeconvSettings { lasso: 0.2, ..off.deconv.clone() };
+        assert_eq!(absent, DeconvModelSettings { deconv: lasso, ..off });
+        assert_eq!((absent.optimism_confidence, absent.plan_exploration), (0.0, false));
+        assert_eq!((absent.deconv.refit_every, absent.deconv.pmf_rounds), (250, 1));
+        assert_eq!(absent.explore.probe_steps, ProbeSteps::Greedy);
+        // A recording lists every setting, so the defaults come back as they were.
+        let text = toml::to_string(&LearnerSpec::new(LearnerKind::DeconvModel)).unwrap();
+        assert_eq!(toml::from_str::<LearnerSpec>(&text).unwrap().settings, LearnerSettings::DeconvModel(d));
+    }
 }
