@@ -362,45 +362,81 @@ impl Deconvolver {
     /// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over the stored history, ỹ_t(k) = y_{t−k},
     /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀), from the non-zero predictions
     /// `pred`: a step whose last K + 1 predictions are all zero adds nothing and is skipped.
-    /// Each sum is taken over t in order, bit for bit as a pass over every step.
+    ///
+    /// The sums are walked along diagonals: two predictions y_u, y_{u'} (|u − u'| ≤ K)
+    /// meet in the windows t = max(u, u')..=min(u, u') + K, where they add
+    /// w_t y_u y_{u'} to A(t − u, t − u'), an entry one row and one column further on at
+    /// each t. Taking the pairs in the order of u, each entry still receives its terms in
+    /// the order of t, so every sum is bit for bit that of a pass over every step.
     fn weighted_stats(&self, pred: &Predictions, p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
         let k_n = self.cfg.settings.max_delay + 1;
         let (var, v0) = delivery_variance(p, rmax);
+        let (steps, ys) = (&pred.steps, &pred.y);
+        // The weight w_t of each window, in window order.
+        let w: Vec<f64> = pred
+            .windows
+            .iter()
+            .map(|&(t, lo, hi)| {
+                let (lo, hi) = (lo as usize, hi as usize);
+                let v = steps[lo..hi]
+                    .iter()
+                    .zip(&ys[lo..hi])
+                    .fold(v0, |v, (&u, &yu)| v + var[(t - u) as usize] * yu * yu);
+                1.0 / v
+            })
+            .collect();
         let mut a = vec![0.0; k_n * k_n];
         let mut c = vec![0.0; k_n];
-        let (steps, ys) = (&pred.steps, &pred.y);
-        // The lags t − u of the predictions in the window of t (at most K + 1 of them).
-        let mut kbuf = vec![0usize; k_n];
-        for &(t, lo, hi) in &pred.windows {
-            let (t, lo, hi) = (t as usize, lo as usize, hi as usize);
-            let live = &ys[lo..hi];
-            let ks = &mut kbuf[..hi - lo];
-            let mut v = v0;
-            for ((kk, &u), &yu) in ks.iter_mut().zip(&steps[lo..hi]).zip(live) {
-                let k = t - u as usize;
-                v += var[k] * yu * yu;
-                *kk = k;
-            }
-            let ks = &*ks;
-            let w = 1.0 / v;
+        let len = self.hist_r.len();
+        // The windows from t = u on are consecutive for K + 1 steps (u is in each of
+        // them), so window first[j] + s is step steps[j] + s.
+        let first = first_windows(pred);
+        let mut near = 0; // The first prediction within K steps before the current one.
+        for (j1, (&u1, &y1)) in steps.iter().zip(ys).enumerate() {
+            let u1 = u1 as usize;
+            let span = (u1 + k_n).min(len) - u1; // The windows holding u1.
+            let w1 = &w[first[j1]..first[j1] + span];
+            // c: the deliveries r_t of the windows holding u1, at lags 0..span.
             // c never holds −0, so adding the zeros of rt = 0 would change nothing.
-            let rt = self.hist_r[t];
-            if rt != 0.0 {
-                let wr = w * rt;
-                for (&k1, &y1) in ks.iter().zip(live) {
-                    c[k1] += wr * y1;
+            for ((ck, &wt), &rt) in c.iter_mut().zip(w1).zip(&self.hist_r[u1..u1 + span]) {
+                if rt != 0.0 {
+                    *ck += wt * rt * y1;
                 }
             }
-            for (&k1, &y1) in ks.iter().zip(live) {
-                let wy = w * y1;
-                let row = &mut a[k1 * k_n..(k1 + 1) * k_n];
-                for (&k2, &y2) in ks.iter().zip(live) {
-                    row[k2] += wy * y2;
+            while steps[near] as usize + k_n <= u1 {
+                near += 1;
+            }
+            // A: row t − u1 against every prediction u2 within K steps of u1.
+            for (&u2, &y2) in steps[near..].iter().zip(&ys[near..]) {
+                let u2 = u2 as usize;
+                if u2 >= u1 + k_n {
+                    break;
+                }
+                let t0 = u1.max(u2);
+                let n = (u1.min(u2) + k_n).min(len) - t0;
+                let (k1, k2) = (t0 - u1, t0 - u2);
+                let diag = a[k1 * k_n + k2..].iter_mut().step_by(k_n + 1);
+                for (x, &wt) in diag.zip(&w1[k1..k1 + n]) {
+                    *x += wt * y1 * y2;
                 }
             }
         }
         (a, c)
     }
+}
+
+/// The window index of each prediction's own step in `pred.windows` (every prediction's
+/// step is a window, as it holds that prediction).
+fn first_windows(pred: &Predictions) -> Vec<usize> {
+    let mut first = Vec::with_capacity(pred.steps.len());
+    let mut wi = 0;
+    for &u in &pred.steps {
+        while pred.windows[wi].0 < u {
+            wi += 1;
+        }
+        first.push(wi);
+    }
+    first
 }
 
 /// The variance model of a delivery under p (K + 1 = p.len() lags): its factor
