@@ -363,11 +363,12 @@ impl Deconvolver {
     /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀), from the non-zero predictions
     /// `pred`: a step whose last K + 1 predictions are all zero adds nothing and is skipped.
     ///
-    /// The sums are walked along diagonals: two predictions y_u, y_{u'} (|u − u'| ≤ K)
-    /// meet in the windows t = max(u, u')..=min(u, u') + K, where they add
-    /// w_t y_u y_{u'} to A(t − u, t − u'), an entry one row and one column further on at
-    /// each t. Taking the pairs in the order of u, each entry still receives its terms in
-    /// the order of t, so every sum is bit for bit that of a pass over every step.
+    /// The sums are walked along diagonals: two predictions y_u, y_{u'} (u ≤ u' ≤ u + K)
+    /// meet in the windows t = u'..=u + K, where they add w_t y_u y_{u'} to
+    /// A(t − u, t − u'), an entry of the lower triangle one row and one column further on
+    /// at each t. Taking the pairs in the order of u, each entry receives its terms in the
+    /// order of t, so the lower triangle is bit for bit that of a pass over every step;
+    /// the upper triangle is its mirror, so A is exactly symmetric.
     fn weighted_stats(&self, pred: &Predictions, p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
         let k_n = self.cfg.settings.max_delay + 1;
         let (var, v0) = delivery_variance(p, rmax);
@@ -391,7 +392,6 @@ impl Deconvolver {
         // The windows from t = u on are consecutive for K + 1 steps (u is in each of
         // them), so window first[j] + s is step steps[j] + s.
         let first = first_windows(pred);
-        let mut near = 0; // The first prediction within K steps before the current one.
         for (j1, (&u1, &y1)) in steps.iter().zip(ys).enumerate() {
             let u1 = u1 as usize;
             let span = (u1 + k_n).min(len) - u1; // The windows holding u1.
@@ -403,22 +403,24 @@ impl Deconvolver {
                     *ck += wt * rt * y1;
                 }
             }
-            while steps[near] as usize + k_n <= u1 {
-                near += 1;
-            }
-            // A: row t − u1 against every prediction u2 within K steps of u1.
-            for (&u2, &y2) in steps[near..].iter().zip(&ys[near..]) {
+            // A's lower triangle: u1 against itself and every later prediction u2 within
+            // K steps, in the windows t = u2..u1 + K (lags t − u1 ≥ t − u2).
+            for (&u2, &y2) in steps[j1..].iter().zip(&ys[j1..]) {
                 let u2 = u2 as usize;
-                if u2 >= u1 + k_n {
+                if u2 >= u1 + span {
                     break;
                 }
-                let t0 = u1.max(u2);
-                let n = (u1.min(u2) + k_n).min(len) - t0;
-                let (k1, k2) = (t0 - u1, t0 - u2);
-                let diag = a[k1 * k_n + k2..].iter_mut().step_by(k_n + 1);
-                for (x, &wt) in diag.zip(&w1[k1..k1 + n]) {
+                let k1 = u2 - u1;
+                let diag = a[k1 * k_n..].iter_mut().step_by(k_n + 1);
+                for (x, &wt) in diag.zip(&w1[k1..]) {
                     *x += wt * y1 * y2;
                 }
+            }
+        }
+        // The upper triangle is the lower one's mirror (the same sums).
+        for i in 0..k_n {
+            for j in i + 1..k_n {
+                a[i * k_n + j] = a[j * k_n + i];
             }
         }
         (a, c)
@@ -515,10 +517,12 @@ mod tests {
     }
 
     /// The reweighted pass from the non-zero predictions equals the pass over every step
-    /// bit for bit: a random history over five pairs (two with R̂ = 0, so that some windows
-    /// are empty and long gaps are skipped), rewards of either sign and zeros, two pmfs.
+    /// (c and A's lower triangle bit for bit, the upper triangle to rounding, as the
+    /// mirror of the lower): a random history over five pairs (two with R̂ = 0, so that
+    /// some windows are empty and long gaps are skipped), rewards of either sign and
+    /// zeros, two pmfs.
     #[test]
-    fn weighted_stats_equal_the_pass_over_every_step() {
+    fn weighted_stats_equal_the_pass_over_every_step_and_are_symmetric() {
         let k = 7;
         let mut c = cfg(k, None);
         c.settings.pmf_weighted = true;
@@ -538,8 +542,25 @@ mod tests {
         for p in [vec![1.0 / 8.0; 8], vec![0.0, 0.1, 0.5, 0.2, 0.0, 0.1, 0.1, 0.0]] {
             let (a, c) = d.weighted_stats(&pred, &p, 10.0);
             let (a_ref, c_ref) = d.weighted_stats_reference(&r, &p, 10.0);
-            assert_eq!(bits(&a), bits(&a_ref));
             assert_eq!(bits(&c), bits(&c_ref));
+            let n = k + 1;
+            for i in 0..n {
+                for j in 0..n {
+                    let (x, reference) = (a[i * n + j], a_ref[i * n + j]);
+                    if i >= j {
+                        // The lower triangle, bit for bit.
+                        assert_eq!(x.to_bits(), reference.to_bits(), "({i}, {j})");
+                    } else {
+                        // The upper triangle: the mirror, which the pass over every step
+                        // sums as w y_{t−j} y_{t−i} instead of w y_{t−i} y_{t−j}.
+                        assert_eq!(x.to_bits(), a[j * n + i].to_bits());
+                        assert!(
+                            (x - reference).abs() <= 1e-12 * reference.abs(),
+                            "({i}, {j}): {x} {reference}"
+                        );
+                    }
+                }
+            }
             assert!(a.iter().any(|&x| x != 0.0) && c.iter().any(|&x| x != 0.0));
         }
     }
