@@ -432,7 +432,6 @@ mod tests {
         };
         assert_eq!((d.optimism_confidence, d.plan_exploration), (2.0, true));
         assert_eq!((d.deconv.refit_every, d.deconv.pmf_rounds, d.deconv.refit_on_surprise), (100, 4, 3.0));
-        assert_eq!(d.deconv.refit_growth, 4);
         assert_eq!(d.explore.probe_steps, ProbeSteps::Any);
         // The rest is the shared deconvolution's and exploration's defaults.
         assert_eq!(d.deconv.lasso, 0.1);
@@ -440,7 +439,6 @@ mod tests {
         // deconv-q and deconv-model-time keep the schedule and the single round.
         let LearnerSettings::DeconvQ(q) = LearnerSettings::of(LearnerKind::DeconvQ) else { panic!() };
         assert_eq!((q.deconv.refit_every, q.deconv.pmf_rounds, q.deconv.refit_on_surprise), (250, 1, 0.0));
-        assert_eq!(q.deconv.refit_growth, 8);
         let params = "[params]\nalpha = 0.1\ngamma = 0.9\nepsilon = 0.01\nq0 = 20.0\n";
         let parse = |head: &str| toml::from_str::<LearnerSpec>(&format!("{head}{params}")).unwrap().settings;
         let LearnerSettings::DeconvModel(absent) = parse("kind = \"deconv-model\"\nlasso = 0.2\n") else {
@@ -450,10 +448,7 @@ mod tests {
         let lasso = crate::settings::DeconvSettings { lasso: 0.2, ..off.deconv.clone() };
         assert_eq!(absent, DeconvModelSettings { deconv: lasso, ..off });
         assert_eq!((absent.optimism_confidence, absent.plan_exploration), (0.0, false));
-        assert_eq!(
-            (absent.deconv.refit_every, absent.deconv.refit_growth, absent.deconv.pmf_rounds),
-            (250, 8, 1)
-        );
+        assert_eq!((absent.deconv.refit_every, absent.deconv.pmf_rounds), (250, 1));
         assert_eq!(absent.explore.probe_steps, ProbeSteps::Greedy);
         // A recording lists every setting, so the defaults come back as they were.
         let text = toml::to_string(&LearnerSpec::new(LearnerKind::DeconvModel)).unwrap();
