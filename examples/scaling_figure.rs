@@ -27,25 +27,33 @@ struct Row {
 fn read_rows(path: &Path) -> Result<Vec<Row>, String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("{}: {e}", path.display()))?;
     if meta.len() > 1 << 20 {
-        return Err(format!("{}: {} bytes, more than the 1 MB a measurement table takes", path.display(), meta.len()));
+        return Err(format!(
+            "{}: {} bytes, more than the 1 MB a measurement table takes",
+            path.display(),
+            meta.len()
+        ));
     }
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
     let column = |name: &str| {
         header.iter().position(|h| *h == name).ok_or_else(|| {
-            format!("{}: no column `{name}` in the header; make the file with tools/scaling.sh", path.display())
+            format!(
+                "{}: no column `{name}` in the header; make the file with tools/scaling.sh",
+                path.display()
+            )
         })
     };
-    let (c, p, s, m) = (column("construction")?, column("pairs")?, column("steps_per_cpu_s")?, column("peak_rss_mb")?);
+    let (c, p, s, m) =
+        (column("construction")?, column("pairs")?, column("steps_per_cpu_s")?, column("peak_rss_mb")?);
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
         let fields: Vec<&str> = line.split(',').collect();
         let number = |k: usize, name: &str| -> Result<f64, String> {
             let text = fields.get(k).copied().unwrap_or("");
-            text.trim().parse::<f64>().map_err(|_| {
-                format!("{} line {}: `{name}` is {text:?}, not a number", path.display(), i + 2)
-            })
+            text.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{} line {}: `{name}` is {text:?}, not a number", path.display(), i + 2))
         };
         rows.push(Row {
             construction: fields.get(c).copied().unwrap_or("").to_string(),
@@ -72,10 +80,18 @@ fn chart(rows: &[Row], title: &str, y_label: &str, value: fn(&Row) -> f64) -> Li
     }
     for name in names {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.construction == name).collect();
-        let label = if name == "defaults" { "deconv-model, defaults".to_string() } else { format!("deconv-model, {}", name.replace('-', " ")) };
+        let label = if name == "defaults" {
+            "deconv-model, defaults".to_string()
+        } else {
+            format!("deconv-model, {}", name.replace('-', " "))
+        };
         chart.series.push(
-            Series::new(label, mine.iter().map(|r| r.pairs).collect(), mine.iter().map(|r| value(r)).collect())
-                .with_markers(),
+            Series::new(
+                label,
+                mine.iter().map(|r| r.pairs).collect(),
+                mine.iter().map(|r| value(r)).collect(),
+            )
+            .with_markers(),
         );
     }
     chart
@@ -83,9 +99,10 @@ fn chart(rows: &[Row], title: &str, y_label: &str, value: fn(&Row) -> f64) -> Li
 
 fn run(csv: &Path, dir: &Path) -> Result<Vec<PathBuf>, String> {
     let rows = read_rows(csv)?;
-    let mut files = chart(&rows, "Speed as the world grows", "thousand steps per CPU-second", |r| r.steps_per_s / 1e3)
-        .write(&dir.join("scaling-speed"))
-        .map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut files =
+        chart(&rows, "Speed as the world grows", "thousand steps per CPU-second", |r| r.steps_per_s / 1e3)
+            .write(&dir.join("scaling-speed"))
+            .map_err(|e| format!("{}: {e}", dir.display()))?;
     let mut memory = chart(&rows, "Memory as the world grows", "peak resident memory (MB)", |r| r.rss_mb);
     memory.y_range = Some((0.0, rows.iter().map(|r| r.rss_mb).fold(0.0, f64::max) * 1.1));
     files.extend(memory.write(&dir.join("scaling-memory")).map_err(|e| format!("{}: {e}", dir.display()))?);
