@@ -339,6 +339,9 @@ impl Deconvolver {
         let (mut lo, mut hi, mut t) = (0, 0, 0);
         while t < self.hist_r.len() {
             while hi < steps.len() && steps[hi] as usize <= t {
+                // Steps come in order and none is skipped, so this one is t: its window
+                // is the one pushed below.
+                pred.first.push(pred.windows.len());
                 hi += 1;
             }
             while lo < hi && steps[lo] as usize + k_n <= t {
@@ -391,7 +394,7 @@ impl Deconvolver {
         let len = self.hist_r.len();
         // The windows from t = u on are consecutive for K + 1 steps (u is in each of
         // them), so window first[j] + s is step steps[j] + s.
-        let first = first_windows(pred);
+        let first = &pred.first;
         for (j1, (&u1, &y1)) in steps.iter().zip(ys).enumerate() {
             let u1 = u1 as usize;
             let span = (u1 + k_n).min(len) - u1; // The windows holding u1.
@@ -427,20 +430,6 @@ impl Deconvolver {
     }
 }
 
-/// The window index of each prediction's own step in `pred.windows` (every prediction's
-/// step is a window, as it holds that prediction).
-fn first_windows(pred: &Predictions) -> Vec<usize> {
-    let mut first = Vec::with_capacity(pred.steps.len());
-    let mut wi = 0;
-    for &u in &pred.steps {
-        while pred.windows[wi].0 < u {
-            wi += 1;
-        }
-        first.push(wi);
-    }
-    first
-}
-
 /// The variance model of a delivery under p (K + 1 = p.len() lags): its factor
 /// p(k)(1 − p(k)) + δ for each lag, δ = 1/(4(K + 1)), and the floor v₀ = 0.01 r²_max, so
 /// that a delivery of predictions y has the variance Σ_k factor(k) y²_{t−k} + v₀.
@@ -458,6 +447,9 @@ struct Predictions {
     /// Each step t whose last K + 1 hold a prediction, in order, with those predictions'
     /// range lo..hi in `steps` and `y`: (t, lo, hi).
     windows: Vec<(u32, u32, u32)>,
+    /// The index in `windows` of each prediction's own step (every prediction's step is a
+    /// window, as it holds that prediction).
+    first: Vec<usize>,
 }
 
 #[cfg(test)]
