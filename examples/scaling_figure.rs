@@ -1,6 +1,7 @@
 //! Draws how `deconv-model`'s cost grows with the world from the measurements of
 //! `tools/scaling.sh`: steps per CPU-second and peak memory against the number of
-//! state-action pairs, the defaults beside the visit count.
+//! state-action pairs, one series per construction the CSV holds (the defaults, the visit
+//! count, the cheaper refits).
 //!
 //! ```sh
 //! bash tools/scaling.sh > docs/performance/scaling.csv
@@ -80,10 +81,10 @@ fn chart(rows: &[Row], title: &str, y_label: &str, value: fn(&Row) -> f64) -> Li
     }
     for name in names {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.construction == name).collect();
-        let label = if name == "defaults" {
-            "deconv-model, defaults".to_string()
-        } else {
-            format!("deconv-model, {}", name.replace('-', " "))
+        let label = match name {
+            "last-round" => "deconv-model, passes in the last round".to_string(),
+            "last-round-g4" => "deconv-model, last round, refit_growth 4".to_string(),
+            other => format!("deconv-model, {}", other.replace('-', " ")),
         };
         chart.series.push(
             Series::new(

@@ -128,6 +128,7 @@ pub(crate) mod tests {
             successor_groups: false,
             joint_test: 0.0,
             pmf_weighted: false,
+            pmf_weighted_rounds: crate::settings::WeightedRounds::Every,
             pmf_significance: 0.0,
             pmf_prior: 0.0,
             pmf_smoothness: 0.0,

@@ -107,6 +107,19 @@ impl TraceSettings {
     }
 }
 
+/// The fits of the delay pmf in a refit that run the reweighted passes
+/// ([`DeconvSettings::pmf_weighted_rounds`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WeightedRounds {
+    /// Every fit: both starts and every further round.
+    #[default]
+    Every,
+    /// The fits a refit can end with: the last round, or both starts when there is one
+    /// round; the earlier fits are plain least squares.
+    Last,
+}
+
 /// Deconvolution settings, shared by `deconv-q`, `deconv-model` and `deconv-model-time`
 /// ([`crate::deconv`]; the measurements behind the defaults: docs/algorithms/deconvolution.md).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -150,6 +163,14 @@ pub struct DeconvSettings {
     /// Refine the delay pmf by reweighted least squares on the stored history (each step
     /// weighted by the inverse variance of its delivery); false: plain least squares.
     pub pmf_weighted: bool,
+    /// Which fits of the delay pmf in a refit run the reweighted passes (with
+    /// `pmf_weighted`): `every` (the default), or `last`, only the fits a refit can end
+    /// with (its last round; both starts when `pmf_rounds` is 1), the earlier ones by plain
+    /// least squares. `last` is the cheaper: on paper-9x9 with `deconv-model`'s defaults
+    /// it takes a third to a half less CPU time and earns as much on average, but a flat
+    /// delay's median is less accurate early (docs/performance.md, "Trading estimates for
+    /// speed").
+    pub pmf_weighted_rounds: WeightedRounds,
     /// Decode each delivery into the discrete reward values it is a sum of (9 = +10 − 1)
     /// and deconvolve each value on its own with a shared delay pmf: the wall bumps' −1s
     /// then form a series of their own, whose irregular timing identifies a delay wider
@@ -212,6 +233,7 @@ impl Default for DeconvSettings {
             successor_groups: true,
             joint_test: 1.0,
             pmf_weighted: true,
+            pmf_weighted_rounds: WeightedRounds::Every,
             decode_values: true,
             pmf_significance: 1.0,
             pmf_prior: 5.0,

@@ -58,14 +58,14 @@ mod stats;
 pub(crate) use counts::MAX_PAIRS;
 pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 
-use crate::settings::DeconvSettings;
+use crate::settings::{DeconvSettings, WeightedRounds};
 use crate::{DelayEstimate, Diagnostics, Table};
 use stats::{LagStats, UNSEEN};
 
 /// Penalty of a pair feature relative to a state feature (state features on).
 const PAIR_PENALTY: f64 = 1.25;
-/// Reweighted passes of the pmf fit per refit.
-const WEIGHTED_PASSES: usize = 3;
+/// Reweighted passes of a weighted fit of the delay pmf.
+pub(crate) const WEIGHTED_PASSES: usize = 3;
 /// Iterations of the projected-gradient solve for p.
 const QP_ITERS: usize = 300;
 /// Coordinate-descent sweeps for R (at most; stops when no estimate moves by 1e-12).
@@ -103,6 +103,16 @@ pub(crate) fn threshold_in_se(significance: f64, pairs: usize, num_actions: usiz
 /// every t/`refit_growth` later.
 pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64) -> u64 {
     t + settings.refit_every.max(t / settings.refit_growth)
+}
+
+/// The reweighted passes of the fits of the delay pmf in round `round` (1: both starts) of
+/// a refit's `pmf_rounds`: [`WEIGHTED_PASSES`] in the fits a refit can end with (the last
+/// round) and, unless `pmf_weighted_rounds` is `last`, in every other.
+pub(crate) fn weighted_passes(settings: &DeconvSettings, round: u32) -> usize {
+    match settings.pmf_weighted_rounds {
+        WeightedRounds::Last if round < settings.pmf_rounds => 0,
+        _ => WEIGHTED_PASSES,
+    }
 }
 
 /// The reward table R̂ and delay pmf p̂ of (D1)–(D2), refitted as data comes in.
@@ -369,7 +379,8 @@ impl Deconvolver {
         };
         fit_all(ds);
         if ds[0].cfg.told.is_none() {
-            Self::fit_pmf_all(ds);
+            let settings = ds[0].cfg.settings.clone();
+            Self::fit_pmf_all(ds, weighted_passes(&settings, 1));
             let warm_objective = fit_all(ds);
             let warm: Vec<_> = ds
                 .iter()
@@ -383,7 +394,7 @@ impl Deconvolver {
                 d.r.iter_mut().chain(d.r_pair.iter_mut()).chain(d.r_group.iter_mut()).for_each(|x| *x = 0.0);
             }
             fit_all(ds);
-            Self::fit_pmf_all(ds);
+            Self::fit_pmf_all(ds, weighted_passes(&settings, 1));
             if fit_all(ds) < warm_objective {
                 ds.iter_mut().for_each(|d| d.cold_wins += 1);
             } else {
@@ -391,8 +402,8 @@ impl Deconvolver {
                     (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
                 }
             }
-            for _ in 1..ds[0].cfg.settings.pmf_rounds {
-                Self::fit_pmf_all(ds);
+            for round in 2..=settings.pmf_rounds {
+                Self::fit_pmf_all(ds, weighted_passes(&settings, round));
                 fit_all(ds);
             }
         }
@@ -480,6 +491,7 @@ pub(crate) mod tests {
             successor_groups: false,
             joint_test: 0.0,
             pmf_weighted: false,
+            pmf_weighted_rounds: crate::settings::WeightedRounds::Every,
             pmf_significance: 0.0,
             pmf_prior: 0.0,
             pmf_smoothness: 0.0,

@@ -5,7 +5,7 @@
 use mmq_core::DelayDist;
 
 use super::stats::LagStats;
-use super::{Deconvolver, QP_ITERS, WEIGHTED_PASSES};
+use super::{Deconvolver, QP_ITERS};
 
 /// The delay pmf of `dist` over 0..=`max_delay`, the tail beyond folded into the last bin.
 pub fn truncated_pmf(dist: &DelayDist, max_delay: usize) -> Vec<f64> {
@@ -264,8 +264,9 @@ impl Deconvolver {
     }
 
     /// p given R̂ of every deconvolver in `ds` (sharing one pmf): FISTA over the simplex
-    /// on the sum of their systems ½ pᵀAp − cᵀp, then the reweighted passes.
-    pub(super) fn fit_pmf_all(ds: &mut [Deconvolver]) {
+    /// on the sum of their systems ½ pᵀAp − cᵀp, then `passes` reweighted passes (with
+    /// `pmf_weighted`; none: plain least squares).
+    pub(super) fn fit_pmf_all(ds: &mut [Deconvolver], passes: usize) {
         ds[0].stats.merge();
         let k_n = ds[0].cfg.settings.max_delay + 1;
         let cfg = ds[0].cfg.clone();
@@ -287,12 +288,12 @@ impl Deconvolver {
         }
         let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &ds[0].pmf) else { return };
         let mut last = None;
-        if cfg.settings.pmf_weighted {
+        if cfg.settings.pmf_weighted && passes > 0 {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
             // R̂ does not change between the passes: its predictions are found once.
             let preds: Vec<Predictions> = systems.iter().map(|(di, r, _)| ds[*di].predictions(r)).collect();
-            for _ in 0..WEIGHTED_PASSES {
+            for _ in 0..passes {
                 let sum = systems.iter().zip(&preds).fold(None, |sum, ((di, _, rm), pred)| {
                     add_system(sum, ds[*di].weighted_stats(pred, &p, *rm))
                 });
@@ -684,6 +685,63 @@ mod tests {
         let want = 2.5 + 0.4 / 0.6;
         assert!(one > 1e-3 && many < 1e-5, "L1 error: one round {one} (median {m1}), twelve {many}");
         assert!((m12 - want).abs() < 1e-3, "median {m12} after twelve rounds, want {want}");
+    }
+
+    /// `pmf_weighted_rounds`: `every` runs the reweighted passes in every round of a
+    /// refit, `last` in its last one only (in both starts when there is one round).
+    #[test]
+    fn weighted_passes_by_round() {
+        use crate::deconv::{WEIGHTED_PASSES, weighted_passes};
+        use crate::settings::WeightedRounds;
+        let mut s = cfg(4, None).settings;
+        for (rule, rounds, want) in [
+            (WeightedRounds::Every, 1, vec![WEIGHTED_PASSES]),
+            (WeightedRounds::Every, 3, vec![WEIGHTED_PASSES; 3]),
+            (WeightedRounds::Last, 1, vec![WEIGHTED_PASSES]),
+            (WeightedRounds::Last, 3, vec![0, 0, WEIGHTED_PASSES]),
+        ] {
+            (s.pmf_weighted_rounds, s.pmf_rounds) = (rule, rounds);
+            let got: Vec<usize> = (1..=rounds).map(|round| weighted_passes(&s, round)).collect();
+            assert_eq!(got, want, "{rule:?}, {rounds} rounds");
+        }
+    }
+
+    /// The rule reaches the refit: on a noisy trace (one reward source, uniform delay on
+    /// 0..=8), `last` equals `every` bit for bit with one round, and with four rounds it
+    /// fits another p̂ (plain least squares before the last round), still reweighted at
+    /// the end (a median standard error) and as close to the truth (median 4).
+    #[test]
+    fn weighted_rounds_reach_the_refit() {
+        use crate::settings::WeightedRounds;
+        let fit = |rule: WeightedRounds, rounds: u32| {
+            let mut c = cfg(12, None);
+            (c.settings.pmf_weighted, c.settings.pmf_weighted_rounds, c.settings.pmf_rounds) =
+                (true, rule, rounds);
+            let mut d = Deconvolver::new(c, 2, 1);
+            let mut rng = rng_from_seed(8);
+            let mut due = vec![0.0; 4000 + 13];
+            for t in 0..4000 {
+                let slot = rng.random_bool(0.2);
+                if slot {
+                    due[t + rng.random_range(0..=8)] += 1.0;
+                }
+                d.observe(usize::from(slot), due[t]);
+            }
+            d.refit();
+            (d.pmf().to_vec(), d.median_se())
+        };
+        let bits = |p: &[f64]| p.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let (every1, se1) = fit(WeightedRounds::Every, 1);
+        let (last1, se1_last) = fit(WeightedRounds::Last, 1);
+        assert_eq!(bits(&every1), bits(&last1));
+        assert_eq!(se1, se1_last);
+        let (every4, se4) = fit(WeightedRounds::Every, 4);
+        let (last4, se4_last) = fit(WeightedRounds::Last, 4);
+        assert_ne!(bits(&every4), bits(&last4));
+        assert!(se4.is_some() && se4_last.is_some());
+        for p in [&every4, &last4] {
+            assert!((pmf_median(p) - 4.0).abs() < 0.5, "median {}", pmf_median(p));
+        }
     }
 
     /// ρ DᵀD for three lags and ρ = 2: the Hessian of ρ/2 [(p1 − p0)² + (p2 − p1)²].
