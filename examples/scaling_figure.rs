@@ -81,11 +81,7 @@ fn chart(rows: &[Row], title: &str, y_label: &str, value: fn(&Row) -> f64) -> Li
     }
     for name in names {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.construction == name).collect();
-        let label = match name {
-            "last-round" => "deconv-model, passes in the last round".to_string(),
-            "last-round-g4" => "deconv-model, last round, refit_growth 4".to_string(),
-            other => format!("deconv-model, {}", other.replace('-', " ")),
-        };
+        let label = format!("deconv-model, {}", name.replace('-', " "));
         chart.series.push(
             Series::new(
                 label,

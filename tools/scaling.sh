@@ -2,9 +2,9 @@
 # CPU time, steps per CPU-second and peak memory of deconv-model as the world grows: one
 # seed of 150,000 steps (ε 0.05, q0 10, Poisson 13, λ̂max 50, no undelayed baseline) on
 # the four worlds of docs/performance.md, with the defaults, with the visit count, with
-# the reweighted passes in the last round of a refit only (`last-round`) and with that and
-# half as many refits (`last-round-g4`), the least CPU time of RUNS runs each (peak RSS
-# and what it earned from the same run).
+# the reweighted passes in the last round of a refit only (`last-round-passes`) and with
+# that and half as many refits (`last-round-passes-refit_growth-4`), the least CPU time of
+# RUNS runs each (peak RSS and what it earned from the same run).
 # Writes CSV to stdout; `cargo run --release --example scaling_figure` draws it.
 #
 #   cargo build --release && bash tools/scaling.sh > docs/performance/scaling.csv
@@ -24,12 +24,12 @@ echo "world,pairs,construction,cpu_s,steps_per_cpu_s,peak_rss_mb,learns,greedy"
 for world in paper-9x9:324 maze-15x15:900 open-30x30:3600 open-50x50:10000; do
   name=${world%%:*}
   pairs=${world#*:}
-  for construction in defaults visit-count last-round last-round-g4; do
+  for construction in defaults visit-count last-round-passes last-round-passes-refit_growth-4; do
     case $construction in
       defaults) flags="" ;;
       visit-count) flags=$VISIT_COUNT ;;
-      last-round) flags="--set pmf_weighted_rounds=last" ;;
-      last-round-g4) flags="--set pmf_weighted_rounds=last --set refit_growth=4" ;;
+      last-round-passes) flags="--set pmf_weighted_rounds=last" ;;
+      last-round-passes-refit_growth-4) flags="--set pmf_weighted_rounds=last --set refit_growth=4" ;;
     esac
     best=""
     for _ in $(seq "$RUNS"); do

@@ -106,11 +106,11 @@ pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64) -> u64 {
 }
 
 /// The reweighted passes of the fits of the delay pmf in round `round` (1: both starts) of
-/// a refit's `pmf_rounds`: [`WEIGHTED_PASSES`] in the fits a refit can end with (the last
-/// round) and, unless `pmf_weighted_rounds` is `last`, in every other.
-pub(crate) fn weighted_passes(settings: &DeconvSettings, round: u32) -> usize {
-    match settings.pmf_weighted_rounds {
-        WeightedRounds::Last if round < settings.pmf_rounds => 0,
+/// a refit's `rounds` (`pmf_rounds`): [`WEIGHTED_PASSES`] in the fits a refit can end with
+/// (the last round) and, unless `rule` (`pmf_weighted_rounds`) is `last`, in every other.
+pub(crate) fn weighted_passes(rule: WeightedRounds, rounds: u32, round: u32) -> usize {
+    match rule {
+        WeightedRounds::Last if round < rounds => 0,
         _ => WEIGHTED_PASSES,
     }
 }
@@ -379,8 +379,8 @@ impl Deconvolver {
         };
         fit_all(ds);
         if ds[0].cfg.told.is_none() {
-            let settings = ds[0].cfg.settings.clone();
-            Self::fit_pmf_all(ds, weighted_passes(&settings, 1));
+            let (rule, rounds) = (ds[0].cfg.settings.pmf_weighted_rounds, ds[0].cfg.settings.pmf_rounds);
+            Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
             let warm_objective = fit_all(ds);
             let warm: Vec<_> = ds
                 .iter()
@@ -394,7 +394,7 @@ impl Deconvolver {
                 d.r.iter_mut().chain(d.r_pair.iter_mut()).chain(d.r_group.iter_mut()).for_each(|x| *x = 0.0);
             }
             fit_all(ds);
-            Self::fit_pmf_all(ds, weighted_passes(&settings, 1));
+            Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
             if fit_all(ds) < warm_objective {
                 ds.iter_mut().for_each(|d| d.cold_wins += 1);
             } else {
@@ -402,8 +402,8 @@ impl Deconvolver {
                     (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
                 }
             }
-            for round in 2..=settings.pmf_rounds {
-                Self::fit_pmf_all(ds, weighted_passes(&settings, round));
+            for round in 2..=rounds {
+                Self::fit_pmf_all(ds, weighted_passes(rule, rounds, round));
                 fit_all(ds);
             }
         }

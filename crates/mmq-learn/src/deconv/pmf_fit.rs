@@ -693,15 +693,13 @@ mod tests {
     fn weighted_passes_by_round() {
         use crate::deconv::{WEIGHTED_PASSES, weighted_passes};
         use crate::settings::WeightedRounds;
-        let mut s = cfg(4, None).settings;
         for (rule, rounds, want) in [
             (WeightedRounds::Every, 1, vec![WEIGHTED_PASSES]),
             (WeightedRounds::Every, 3, vec![WEIGHTED_PASSES; 3]),
             (WeightedRounds::Last, 1, vec![WEIGHTED_PASSES]),
             (WeightedRounds::Last, 3, vec![0, 0, WEIGHTED_PASSES]),
         ] {
-            (s.pmf_weighted_rounds, s.pmf_rounds) = (rule, rounds);
-            let got: Vec<usize> = (1..=rounds).map(|round| weighted_passes(&s, round)).collect();
+            let got: Vec<usize> = (1..=rounds).map(|round| weighted_passes(rule, rounds, round)).collect();
             assert_eq!(got, want, "{rule:?}, {rounds} rounds");
         }
     }
