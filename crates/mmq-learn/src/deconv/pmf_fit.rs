@@ -390,8 +390,11 @@ impl Deconvolver {
                 1.0 / v
             })
             .collect();
-        let mut a = vec![0.0; k_n * k_n];
+        // The lower triangle by diagonals: `diags[k1 * k_n + s]` = A(k1 + s, s), so that
+        // the terms of one pair of predictions fall on contiguous entries.
+        let mut diags = vec![0.0; k_n * k_n];
         let mut c = vec![0.0; k_n];
+        let mut wy1 = vec![0.0; k_n];
         let len = self.hist_r.len();
         // The windows from t = u on are consecutive for K + 1 steps (u is in each of
         // them), so window first[j] + s is step steps[j] + s.
@@ -407,6 +410,9 @@ impl Deconvolver {
                     *ck += wt * rt * y1;
                 }
             }
+            // w_t y1 of each window holding u1 (a term w_t y1 y2 is (w_t y1) y2).
+            let wy1 = &mut wy1[..span];
+            wy1.iter_mut().zip(w1).for_each(|(x, &wt)| *x = wt * y1);
             // A's lower triangle: u1 against itself and every later prediction u2 within
             // K steps, in the windows t = u2..u1 + K (lags t − u1 ≥ t − u2).
             for (&u2, &y2) in steps[j1..].iter().zip(&ys[j1..]) {
@@ -415,16 +421,19 @@ impl Deconvolver {
                     break;
                 }
                 let k1 = u2 - u1;
-                let diag = a[k1 * k_n..].iter_mut().step_by(k_n + 1);
-                for (x, &wt) in diag.zip(&w1[k1..]) {
-                    *x += wt * y1 * y2;
+                let diag = &mut diags[k1 * k_n..k1 * k_n + span - k1];
+                for (x, &wy) in diag.iter_mut().zip(&wy1[k1..]) {
+                    *x += wy * y2;
                 }
             }
         }
-        // The upper triangle is the lower one's mirror (the same sums).
-        for i in 0..k_n {
-            for j in i + 1..k_n {
-                a[i * k_n + j] = a[j * k_n + i];
+        // A from its diagonals; the upper triangle is the lower one's mirror (the same sums).
+        let mut a = vec![0.0; k_n * k_n];
+        for k1 in 0..k_n {
+            for s in 0..k_n - k1 {
+                let x = diags[k1 * k_n + s];
+                a[(k1 + s) * k_n + s] = x;
+                a[s * k_n + k1 + s] = x;
             }
         }
         (a, c)
