@@ -54,14 +54,31 @@ fn add_system(total: Option<System>, system: System) -> Option<System> {
     })
 }
 
-/// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008).
-pub(crate) fn project_simplex(v: &mut [f64]) {
-    let mut u: Vec<f64> = v.to_vec();
-    // Values equal under the total order are the same bits: any sort gives this array.
-    u.sort_unstable_by(|a, b| b.total_cmp(a));
+/// Projects `v` onto the probability simplex (Euclidean; Duchi et al. 2008). `order` is
+/// scratch for the indices of `v` in decreasing order: kept from a previous call, it is
+/// sorted again by insertion, which costs little when the order of the values has barely
+/// changed, as between the iterations of a solver (any content of the wrong length is
+/// replaced).
+pub(crate) fn project_simplex(v: &mut [f64], order: &mut Vec<usize>) {
+    if order.len() != v.len() {
+        order.clear();
+        order.extend(0..v.len());
+    }
+    for i in 1..order.len() {
+        let x = order[i];
+        let mut j = i;
+        while j > 0 && v[order[j - 1]].total_cmp(&v[x]).is_lt() {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = x;
+    }
+    // Values equal under the total order are the same bits: any permutation that sorts
+    // them gives the same sequence of values, so the same sums.
     let mut acc = 0.0;
     let mut theta = 0.0;
-    for (i, &x) in u.iter().enumerate() {
+    for (i, &o) in order.iter().enumerate() {
+        let x = v[o];
         acc += x;
         let t = (acc - 1.0) / (i + 1) as f64;
         if x - t > 0.0 {
@@ -71,13 +88,13 @@ pub(crate) fn project_simplex(v: &mut [f64]) {
     v.iter_mut().for_each(|x| *x = (*x - theta).max(0.0));
 }
 
-/// Projects `v` onto {p ≥ 0, Σ p ≤ 1}.
-pub(crate) fn project_capped_simplex(v: &mut [f64]) {
+/// Projects `v` onto {p ≥ 0, Σ p ≤ 1} (`order` as for [`project_simplex`]).
+pub(crate) fn project_capped_simplex(v: &mut [f64], order: &mut Vec<usize>) {
     let pos: f64 = v.iter().map(|x| x.max(0.0)).sum();
     if pos <= 1.0 {
         v.iter_mut().for_each(|x| *x = x.max(0.0));
     } else {
-        project_simplex(v);
+        project_simplex(v, order);
     }
 }
 
@@ -202,13 +219,14 @@ pub(crate) fn solve_pmf(a: &[f64], c: &[f64], nu: f64, lam: &[f64], warm: &[f64]
     let mut theta: f64 = 1.0;
     let mut next = vec![0.0; k_n];
     let mut az = vec![0.0; k_n];
+    let mut order = Vec::with_capacity(k_n);
     for _ in 0..QP_ITERS {
         a.mat_vec(&z, &mut az);
         for i in 0..k_n {
             let grad: f64 = az[i] - c[i] + nu * (z[i] - uni) + lam[i];
             next[i] = z[i] - step * grad;
         }
-        project_capped_simplex(&mut next);
+        project_capped_simplex(&mut next, &mut order);
         let theta2 = (1.0 + (1.0 + 4.0 * theta * theta).sqrt()) / 2.0;
         let mom = (theta - 1.0) / theta2;
         for i in 0..k_n {
@@ -522,6 +540,46 @@ mod tests {
     /// (c and A's lower triangle bit for bit, the upper triangle to rounding, as the
     /// mirror of the lower): a random history over five pairs (two with R̂ = 0, so that
     /// some windows are empty and long gaps are skipped), rewards of either sign and
+    /// The projection onto the simplex by the order kept between calls equals the one by
+    /// a full sort, bit for bit, whatever order is kept (none, the previous vector's, a
+    /// stale one of another length), with ties and zeros among the values.
+    #[test]
+    fn simplex_projection_by_kept_order_equals_the_sorted_one() {
+        let by_sort = |v: &[f64]| {
+            let mut u = v.to_vec();
+            u.sort_unstable_by(|a, b| b.total_cmp(a));
+            let (mut acc, mut theta) = (0.0, 0.0);
+            for (i, &x) in u.iter().enumerate() {
+                acc += x;
+                let t = (acc - 1.0) / (i + 1) as f64;
+                if x - t > 0.0 {
+                    theta = t;
+                }
+            }
+            v.iter().map(|x| (x - theta).max(0.0)).collect::<Vec<f64>>()
+        };
+        let mut rng = rng_from_seed(5);
+        let mut order = vec![0, 1, 2];
+        let mut v: Vec<f64> = (0..51).map(|_| rng.random_range(-0.2..0.3)).collect();
+        for round in 0..400 {
+            if round % 50 == 0 {
+                // A vector of a new length, with ties and exact zeros.
+                let n = rng.random_range(1..60);
+                v = (0..n).map(|_| rng.random_range(-2..5) as f64 * 0.125).collect();
+            } else {
+                // Nudged, as between iterations, or scrambled.
+                let scale = if round % 7 == 0 { 0.5 } else { 0.001 };
+                v.iter_mut().for_each(|x| *x += rng.random_range(-scale..scale));
+            }
+            let expect = by_sort(&v);
+            let mut got = v.clone();
+            project_simplex(&mut got, &mut order);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&got), bits(&expect), "round {round}");
+            assert!(order.windows(2).all(|w| v[w[0]] >= v[w[1]]));
+        }
+    }
+
     /// zeros, two pmfs.
     #[test]
     fn weighted_stats_equal_the_pass_over_every_step_and_are_symmetric() {
