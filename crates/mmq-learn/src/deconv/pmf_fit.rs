@@ -417,12 +417,11 @@ impl Deconvolver {
             let u1 = u1 as usize;
             let span = (u1 + k_n).min(len) - u1; // The windows holding u1.
             let w1 = &w[first[j1]..first[j1] + span];
-            // c: the deliveries r_t of the windows holding u1, at lags 0..span.
-            // c never holds −0, so adding the zeros of rt = 0 would change nothing.
+            // c: the deliveries r_t of the windows holding u1, at lags 0..span. The terms
+            // of rt = 0 are ±0 (w and y finite) and c never holds −0, so adding them
+            // changes nothing: they are added rather than branched around.
             for ((ck, &wt), &rt) in c.iter_mut().zip(w1).zip(&self.hist_r[u1..u1 + span]) {
-                if rt != 0.0 {
-                    *ck += wt * rt * y1;
-                }
+                *ck += wt * rt * y1;
             }
             // w_t y1 of each window holding u1 (a term w_t y1 y2 is (w_t y1) y2).
             let wy1 = &mut wy1[..span];
