@@ -172,8 +172,15 @@ impl Gram {
     #[inline]
     pub(crate) fn add_row(&self, i: usize, d: f64, y: &mut [f64]) -> f64 {
         let r = self.row(i);
-        for (&c, &v) in r.col.iter().zip(&r.val) {
-            y[c as usize] += v * d;
+        if r.col.len() == y.len() {
+            // Every column present, in order: the same sums, without the indirection.
+            for (yc, &v) in y.iter_mut().zip(&r.val) {
+                *yc += v * d;
+            }
+        } else {
+            for (&c, &v) in r.col.iter().zip(&r.val) {
+                y[c as usize] += v * d;
+            }
         }
         r.max_abs
     }
