@@ -56,7 +56,10 @@ pub(crate) struct Gram {
     rows: Vec<OnceCell<Row>>,
     /// The counts and the lag weights w_j the rows are read from (none: every row given).
     source: Option<(Arc<Merged>, Vec<f64>)>,
-    edges: Vec<Edge>,
+    /// The edge terms by row, each row's in the order of the edges: row i subtracts
+    /// `edge_terms[edge_at[i]..edge_at[i + 1]]`, as (column, deficit).
+    edge_at: Vec<usize>,
+    edge_terms: Vec<(u32, f64)>,
 }
 
 impl Gram {
@@ -82,7 +85,26 @@ impl Gram {
                 }
             }
         }
-        Self { n, diag, rows: vec![OnceCell::new(); n], source: Some((merged, w)), edges }
+        // The terms of each edge in order, (row, column, deficit), then grouped by row
+        // by a stable counting sort.
+        let terms = edges.iter().flat_map(|e| {
+            let back = e.lagged.then_some((e.w, e.v, e.deficit));
+            std::iter::once((e.v, e.w, e.deficit)).chain(back)
+        });
+        let mut edge_at = vec![0usize; n + 1];
+        for (row, _, _) in terms.clone() {
+            edge_at[row as usize + 1] += 1;
+        }
+        for i in 0..n {
+            edge_at[i + 1] += edge_at[i];
+        }
+        let mut next = edge_at.clone();
+        let mut edge_terms = vec![(0u32, 0.0); edge_at[n]];
+        for (row, col, deficit) in terms {
+            edge_terms[next[row as usize]] = (col, deficit);
+            next[row as usize] += 1;
+        }
+        Self { n, diag, rows: vec![OnceCell::new(); n], source: Some((merged, w)), edge_at, edge_terms }
     }
 
     /// An `n`×`n` matrix from its entries in row-major order (its non-zero entries kept).
@@ -100,7 +122,8 @@ impl Gram {
                 OnceCell::from(r)
             })
             .collect();
-        Self { n, diag: (0..n).map(|i| g[i * n + i]).collect(), rows, source: None, edges: Vec::new() }
+        let (edge_at, edge_terms) = (vec![0; n + 1], Vec::new());
+        Self { n, diag: (0..n).map(|i| g[i * n + i]).collect(), rows, source: None, edge_at, edge_terms }
     }
 
     /// The number of rows (compact pairs).
@@ -144,14 +167,8 @@ impl Gram {
                 row.col.push(c);
                 row.val.push(v);
             }
-            let me = i as u32;
-            for e in &self.edges {
-                if e.v == me {
-                    row.sub(e.w, e.deficit);
-                }
-                if e.lagged && e.w == me {
-                    row.sub(e.v, e.deficit);
-                }
+            for &(c, deficit) in &self.edge_terms[self.edge_at[i]..self.edge_at[i + 1]] {
+                row.sub(c, deficit);
             }
             row.max_abs = row.val.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
             row
