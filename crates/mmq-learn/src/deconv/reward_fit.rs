@@ -45,8 +45,9 @@ struct Lasso<'a> {
 #[derive(Default)]
 struct Sweep {
     start: Vec<usize>,
-    /// Whether group g's own feature is tested (grouped, more than one pair, 1ᵀG_g1 > 0).
-    group_on: Vec<bool>,
+    /// The groups whose own feature is tested (grouped, more than one pair,
+    /// 1ᵀG_g1 > 0), in order.
+    groups_on: Vec<usize>,
     pair: Vec<usize>,
     b: Vec<f64>,
     gii: Vec<f64>,
@@ -158,54 +159,77 @@ impl Iterate {
     }
 
     /// At most `sweeps` sweeps of coordinate descent over every feature (fewer once no
-    /// estimate moves by 1e-12).
+    /// estimate moves by 1e-12). A sweep takes the groups in order, each group's own
+    /// feature (when it has one) before its pairs' features; the pairs of consecutive
+    /// groups without a feature of their own are one stretch of the sweep.
     fn descend(&mut self, l: &Lasso<'_>, sweeps: usize) {
+        let sw = &l.sweep;
         for _ in 0..sweeps {
             let mut moved: f64 = 0.0;
-            let sw = &l.sweep;
-            for (gi, (_, members)) in l.groups.iter().enumerate() {
+            let mut from = 0;
+            for &gi in &sw.groups_on {
+                self.test_pairs(l, from, sw.start[gi], &mut moved);
+                from = sw.start[gi];
                 // The group feature: one value shared by the group's pairs.
-                if sw.group_on[gi] {
-                    let z: f64 = members.iter().map(|&i| l.bvec[i] - self.gr[i]).sum::<f64>()
-                        + l.gss[gi] * self.rs[gi];
-                    let d = l.soft(z, l.gss[gi], 1.0) - self.rs[gi];
-                    if d != 0.0 {
-                        self.rs[gi] += d;
-                        for &i in members {
-                            self.shift(l.g, i, d);
-                        }
-                        moved = moved.max(d.abs());
-                    }
-                }
-                // The pair features.
-                for p in sw.start[gi]..sw.start[gi + 1] {
-                    if self.screen.reach_hi < self.screen.until[p] {
-                        #[cfg(test)]
-                        tests::SKIPPED.with(|c| c.set(c.get() + 1));
-                        continue;
-                    }
-                    let (i, gii) = (sw.pair[p], sw.gii[p]);
-                    if gii <= 0.0 || self.excluded[i] {
-                        continue;
-                    }
-                    let rp = self.rp[i];
-                    let z = sw.b[p] - self.gr[i] + gii * rp;
-                    let d = l.soft_at(z, sw.thr[p], sw.den[p]) - rp;
-                    if d != 0.0 {
-                        self.screen.until[p] = f64::NEG_INFINITY;
-                        self.rp[i] += d;
+                let members = &l.groups[gi].1;
+                let z: f64 =
+                    members.iter().map(|&i| l.bvec[i] - self.gr[i]).sum::<f64>() + l.gss[gi] * self.rs[gi];
+                let d = l.soft(z, l.gss[gi], 1.0) - self.rs[gi];
+                if d != 0.0 {
+                    self.rs[gi] += d;
+                    for &i in members {
                         self.shift(l.g, i, d);
-                        moved = moved.max(d.abs());
-                    } else if rp == 0.0 && z.abs() <= sw.thr[p] {
-                        self.screen.at_zero(p, z, sw.thr[p], self.gr[i]);
-                    } else {
-                        self.screen.until[p] = f64::NEG_INFINITY;
                     }
+                    moved = moved.max(d.abs());
                 }
             }
+            self.test_pairs(l, from, sw.pair.len(), &mut moved);
             if moved < 1e-12 {
                 break;
             }
+        }
+    }
+
+    /// The pair features at sweep positions `from..to`, in order; the largest move is
+    /// raised into `moved`. Positions the screen rules out are passed over four at a
+    /// time while no feature moves (the screen's reach changes only with a move).
+    fn test_pairs(&mut self, l: &Lasso<'_>, from: usize, to: usize, moved: &mut f64) {
+        let sw = &l.sweep;
+        let mut p = from;
+        while p < to {
+            let reach_hi = self.screen.reach_hi;
+            while p + 4 <= to && self.screen.until[p..p + 4].iter().fold(true, |all, &u| all & (reach_hi < u))
+            {
+                #[cfg(test)]
+                tests::SKIPPED.with(|c| c.set(c.get() + 4));
+                p += 4;
+            }
+            if p == to {
+                break;
+            }
+            if reach_hi < self.screen.until[p] {
+                #[cfg(test)]
+                tests::SKIPPED.with(|c| c.set(c.get() + 1));
+                p += 1;
+                continue;
+            }
+            let (i, gii) = (sw.pair[p], sw.gii[p]);
+            if gii > 0.0 && !self.excluded[i] {
+                let rp = self.rp[i];
+                let z = sw.b[p] - self.gr[i] + gii * rp;
+                let d = l.soft_at(z, sw.thr[p], sw.den[p]) - rp;
+                if d != 0.0 {
+                    self.screen.until[p] = f64::NEG_INFINITY;
+                    self.rp[i] += d;
+                    self.shift(l.g, i, d);
+                    *moved = moved.max(d.abs());
+                } else if rp == 0.0 && z.abs() <= sw.thr[p] {
+                    self.screen.at_zero(p, z, sw.thr[p], self.gr[i]);
+                } else {
+                    self.screen.until[p] = f64::NEG_INFINITY;
+                }
+            }
+            p += 1;
         }
     }
 }
@@ -333,7 +357,9 @@ impl Deconvolver {
         let mut sw = Sweep::default();
         for (gi, (_, members)) in l.groups.iter().enumerate() {
             sw.start.push(sw.pair.len());
-            sw.group_on.push(l.grouped && members.len() > 1 && l.gss[gi] > 0.0);
+            if l.grouped && members.len() > 1 && l.gss[gi] > 0.0 {
+                sw.groups_on.push(gi);
+            }
             for &i in members {
                 sw.pair.push(i);
                 sw.b.push(l.bvec[i]);
