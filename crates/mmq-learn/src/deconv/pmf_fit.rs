@@ -250,7 +250,7 @@ impl Deconvolver {
         // q_j = Rᵀ C_j R over the support of R;  c_k = Σ_i R_i B_k(i).
         let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
         let q = counts.lag_products(&support, &r);
-        let cvec = st.lagged_reward_sums(&r);
+        let cvec = st.lagged_reward_sums(&r, &support);
         // A_{kk'} = Σ_t y_{t−k} y_{t−k'} = q_{|k−k'|} − E(|k−k'|, min(k, k')), where
         // E(j, m) = Σ_{u=T−m}^{T−1} y_{u−j} y_u removes the windows that end after now.
         let (big_t, start) = (st.t, st.start);

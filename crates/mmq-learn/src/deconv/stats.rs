@@ -207,10 +207,26 @@ impl LagStats {
         q
     }
 
-    /// c_k = Σ_i R_i B_k(i), k = 0..=K.
-    pub(crate) fn lagged_reward_sums(&self, r: &[f64]) -> Vec<f64> {
+    /// c_k = Σ_i R_i B_k(i), k = 0..=K, each summed over i in order from −0 (as
+    /// `Iterator::sum`), where `support` lists (ascending) the i with R_i ≠ 0.
+    ///
+    /// Only the support is read, row by row: the terms left out are ±0, which leave a
+    /// non-zero partial sum as it is and can change a zero one only in its sign, so a
+    /// non-zero c_k is the full sum's, bit for bit; a c_k of zero is summed again in full.
+    pub(crate) fn lagged_reward_sums(&self, r: &[f64], support: &[usize]) -> Vec<f64> {
         let k_n = self.k_n;
-        (0..k_n).map(|k| (0..self.n()).map(|i| r[i] * self.b[i * k_n + k]).sum()).collect()
+        let mut c = vec![-0.0; k_n];
+        for &i in support {
+            for (ck, &bk) in c.iter_mut().zip(&self.b[i * k_n..(i + 1) * k_n]) {
+                *ck += r[i] * bk;
+            }
+        }
+        for (k, ck) in c.iter_mut().enumerate() {
+            if *ck == 0.0 {
+                *ck = (0..self.n()).map(|i| r[i] * self.b[i * k_n + k]).sum();
+            }
+        }
+        c
     }
 }
 
@@ -276,6 +292,43 @@ mod tests {
                 })
                 .collect()
         }
+    }
+
+    /// c = Σ_i R_i B_k(i) from the support alone equals the sum over every pair, bit for
+    /// bit, for R̂ with zeros of both signs, a sum that cancels to zero, and R̂ = 0.
+    #[test]
+    fn lagged_reward_sums_from_the_support_equal_the_full_sums() {
+        let (num_pairs, k) = (9, 4);
+        let k_n = k + 1;
+        let mut rng = rng_from_seed(8);
+        let mut st = LagStats::new(num_pairs, k, true);
+        for _ in 0..2000 {
+            let x = rng.random_range(0..num_pairs);
+            let r = if rng.random_bool(0.3) { f64::from(rng.random_range(-2i32..4)) } else { 0.0 };
+            st.record(x, r);
+        }
+        st.merge();
+        let n = st.n();
+        let full = |r: &[f64]| -> Vec<f64> {
+            (0..k_n).map(|kk| (0..n).map(|i| r[i] * st.b[i * k_n + kk]).sum()).collect()
+        };
+        let mut cases: Vec<Vec<f64>> = vec![vec![0.0; n], vec![-0.0; n]];
+        cases.push((0..n).map(|i| if i % 2 == 0 { -0.0 } else { i as f64 * 0.37 - 1.1 }).collect());
+        // Two pairs whose terms cancel at every lag where only they count.
+        let mut cancel = vec![0.0; n];
+        cancel[0] = 1.0;
+        cancel[1] = 1.0;
+        let lag = (0..k_n).find(|&kk| st.b[kk] != 0.0).expect("pair 0 saw a reward");
+        cancel[1] = -st.b[lag] / st.b[k_n + lag].max(1.0);
+        cases.push(cancel);
+        for r in &cases {
+            let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
+            let got = st.lagged_reward_sums(r, &support);
+            let want = full(r);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&got), bits(&want), "R̂ {r:?}");
+        }
+        assert!(full(&cases[2]).iter().any(|&c| c != 0.0));
     }
 
     /// A random walk over 12 pairs (some frequent, some rare), two runs, K = 5: the
