@@ -314,12 +314,11 @@ mod tests {
         };
         let mut cases: Vec<Vec<f64>> = vec![vec![0.0; n], vec![-0.0; n]];
         cases.push((0..n).map(|i| if i % 2 == 0 { -0.0 } else { i as f64 * 0.37 - 1.1 }).collect());
-        // Two pairs whose terms cancel at every lag where only they count.
+        // Two pairs whose terms cancel exactly at a lag where both saw rewards:
+        // R_0 = B_k(1), R_1 = −B_k(0), so c_k = B_k(1) B_k(0) − B_k(0) B_k(1) = +0.
+        let lag = (0..k_n).find(|&kk| st.b[kk] != 0.0 && st.b[k_n + kk] != 0.0).expect("both saw rewards");
         let mut cancel = vec![0.0; n];
-        cancel[0] = 1.0;
-        cancel[1] = 1.0;
-        let lag = (0..k_n).find(|&kk| st.b[kk] != 0.0).expect("pair 0 saw a reward");
-        cancel[1] = -st.b[lag] / st.b[k_n + lag].max(1.0);
+        (cancel[0], cancel[1]) = (st.b[k_n + lag], -st.b[lag]);
         cases.push(cancel);
         for r in &cases {
             let support: Vec<usize> = (0..n).filter(|&i| r[i] != 0.0).collect();
@@ -329,6 +328,7 @@ mod tests {
             assert_eq!(bits(&got), bits(&want), "R̂ {r:?}");
         }
         assert!(full(&cases[2]).iter().any(|&c| c != 0.0));
+        assert_eq!(full(&cases[3])[lag], 0.0);
     }
 
     /// A random walk over 12 pairs (some frequent, some rare), two runs, K = 5: the
