@@ -52,6 +52,7 @@ mod counts;
 mod gram;
 mod linalg;
 mod pmf_fit;
+mod qp;
 mod reward_fit;
 mod stats;
 
