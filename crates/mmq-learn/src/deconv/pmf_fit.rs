@@ -391,6 +391,10 @@ mod tests {
         }
     }
 
+    /// The reweighted pass from the non-zero predictions equals the pass over every step
+    /// (c and A's lower triangle bit for bit, the upper triangle to rounding, as the
+    /// mirror of the lower): a random history over five pairs (two with R̂ = 0, so that
+    /// some windows are empty and long gaps are skipped), rewards of either sign and
     /// zeros, two pmfs.
     #[test]
     fn weighted_stats_equal_the_pass_over_every_step_and_are_symmetric() {

@@ -151,10 +151,6 @@ mod tests {
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
 
-    /// The reweighted pass from the non-zero predictions equals the pass over every step
-    /// (c and A's lower triangle bit for bit, the upper triangle to rounding, as the
-    /// mirror of the lower): a random history over five pairs (two with R̂ = 0, so that
-    /// some windows are empty and long gaps are skipped), rewards of either sign and
     /// The projection onto the simplex by the order kept between calls equals the one by
     /// a full sort, bit for bit, whatever order is kept (none, the previous vector's, a
     /// stale one of another length), with ties and zeros among the values.
