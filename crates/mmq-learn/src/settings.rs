@@ -209,6 +209,13 @@ pub struct DeconvSettings {
     /// high for tens of thousands of steps; 4 rounds (`deconv-model`'s default) halved its
     /// error on paper-9x9 under the reward-first settings (docs/algorithms/deconv-model.md).
     pub pmf_rounds: u32,
+    /// τ ≥ 0: a refit's rounds stop early once the delay pmf has settled, that is after
+    /// the first round that moved no p̂(k) by more than τ from where the round started
+    /// (the kept start's first round starts from the previous p̂, or from the uniform pmf).
+    /// 0 (the default): every one of the `pmf_rounds` rounds runs. A small τ such as 1e-4
+    /// saves the late refits' rounds, where p̂ moves by 1e-5 or less, and keeps the early
+    /// ones, where the rounds matter (docs/performance.md, "Rounds until the pmf settles").
+    pub pmf_tolerance: f64,
     /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
     /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
     /// is none, which the agent then seeks; a cost put on the moves around a bump, which
@@ -241,6 +248,7 @@ impl Default for DeconvSettings {
             refit_every: 250,
             refit_growth: 8,
             pmf_rounds: 1,
+            pmf_tolerance: 0.0,
             refit_on_surprise: 0.0,
             told_delay: None,
         }
@@ -250,7 +258,7 @@ impl Default for DeconvSettings {
 impl DeconvSettings {
     fn validate(&self) -> Result<(), LearnError> {
         // Finite and ≥ 0, checked in this order (the first failing field is reported).
-        let non_negative: [(&'static str, f64, &'static str); 8] = [
+        let non_negative: [(&'static str, f64, &'static str); 9] = [
             ("reward_prior", self.reward_prior, "use a prior strength ≥ 0, e.g. 1"),
             ("lasso", self.lasso, "use an L1 penalty ≥ 0 in reward units, e.g. 0.1"),
             ("significance", self.significance, "use a multiple of the universal threshold ≥ 0, e.g. 1"),
@@ -258,6 +266,7 @@ impl DeconvSettings {
             ("pmf_significance", self.pmf_significance, "use a number of standard errors ≥ 0, e.g. 1"),
             ("pmf_prior", self.pmf_prior, "use a prior weight ≥ 0 in visits, e.g. 5"),
             ("pmf_smoothness", self.pmf_smoothness, "use a penalty ≥ 0 in visits, e.g. 10 (0: off)"),
+            ("pmf_tolerance", self.pmf_tolerance, "use a probability ≥ 0, e.g. 1e-4 (0: every round runs)"),
             (
                 "refit_on_surprise",
                 self.refit_on_surprise,

@@ -312,6 +312,9 @@ mod tests {
         m.deconv.pmf_rounds = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_rounds"));
         m.deconv.pmf_rounds = 1;
+        m.deconv.pmf_tolerance = -1e-4;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_tolerance"));
+        m.deconv.pmf_tolerance = 0.0;
         m.deconv.refit_on_surprise = f64::NAN;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_on_surprise"));
         m.deconv.refit_on_surprise = 0.0;

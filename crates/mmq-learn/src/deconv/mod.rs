@@ -116,6 +116,17 @@ pub(crate) fn weighted_passes(rule: WeightedRounds, rounds: u32, round: u32) -> 
     }
 }
 
+/// The uniform pmf on 0..`k_n`: the cold start of a refit.
+fn uniform_pmf(k_n: usize) -> Vec<f64> {
+    vec![1.0 / k_n as f64; k_n]
+}
+
+/// Whether a round of the alternation that took the delay pmf from `from` to `to` moved
+/// no p̂(k) by more than `tolerance` (`pmf_tolerance`): the rounds of the refit stop.
+fn settled(from: &[f64], to: &[f64], tolerance: f64) -> bool {
+    from.iter().zip(to).all(|(a, b)| (a - b).abs() <= tolerance)
+}
+
 /// The reward table R̂ and delay pmf p̂ of (D1)–(D2), refitted as data comes in.
 #[derive(Clone, Debug)]
 pub struct Deconvolver {
@@ -145,6 +156,9 @@ pub struct Deconvolver {
     refits: u64,
     /// Refits at which the cold start (from the uniform pmf) won.
     cold_wins: u64,
+    /// Rounds of the alternation run by the kept start, over all refits (`pmf_rounds` per
+    /// refit, fewer once the pmf settles with `pmf_tolerance`).
+    rounds: u64,
     /// Pairs dropped by the joint test, over all refits, and refactorisations of its
     /// inverse (the rest were O(s²) updates).
     joint_drops: u64,
@@ -199,6 +213,7 @@ impl Deconvolver {
             rss: None,
             refits: 0,
             cold_wins: 0,
+            rounds: 0,
             joint_drops: 0,
             joint_factorisations: 0,
             sign: 0.0,
@@ -274,6 +289,11 @@ impl Deconvolver {
         self.refits
     }
 
+    /// Rounds of the alternation run so far, over all refits (`delay/rounds`).
+    pub fn rounds(&self) -> u64 {
+        self.rounds
+    }
+
     /// Pairs taken so far.
     pub fn pairs_seen(&self) -> usize {
         self.stats.n()
@@ -332,12 +352,13 @@ impl Deconvolver {
     }
 
     /// Takes over `other`'s delay estimate and its counters (refits,
-    /// cold-start wins, joint-test drops): a deconvolver rebuilt from the history
+    /// cold-start wins, rounds, joint-test drops): a deconvolver rebuilt from the history
     /// continues where `other` was.
     pub(crate) fn inherit(&mut self, other: &Deconvolver) {
         self.pmf.clone_from(&other.pmf);
         self.refits = other.refits;
         self.cold_wins = other.cold_wins;
+        self.rounds = other.rounds;
         self.joint_drops = other.joint_drops;
         self.joint_factorisations = other.joint_factorisations;
     }
@@ -352,7 +373,8 @@ impl Deconvolver {
     /// When estimating, a second alternation starts from the uniform pmf (a cold start)
     /// and the fit with the lower penalised objective (D2) is kept: an alternation that
     /// locked onto a wrong delay early (or found no reward at all) gets out again. The
-    /// kept fit then gets `pmf_rounds` − 1 more rounds of p̂ given R̂ and R̂ given p̂.
+    /// kept fit then gets `pmf_rounds` − 1 more rounds of p̂ given R̂ and R̂ given p̂
+    /// (fewer with `pmf_tolerance` > 0: they stop once a round leaves p̂ where it was).
     pub fn refit(&mut self) {
         Self::refit_all(std::slice::from_mut(self));
     }
@@ -381,6 +403,8 @@ impl Deconvolver {
         fit_all(ds);
         if ds[0].cfg.told.is_none() {
             let (rule, rounds) = (ds[0].cfg.settings.pmf_weighted_rounds, ds[0].cfg.settings.pmf_rounds);
+            let tolerance = ds[0].cfg.settings.pmf_tolerance;
+            let previous = ds[0].pmf.clone();
             Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
             let warm_objective = fit_all(ds);
             let warm: Vec<_> = ds
@@ -390,22 +414,29 @@ impl Deconvolver {
                 })
                 .collect();
             for d in ds.iter_mut() {
-                let k_n = d.cfg.settings.max_delay + 1;
-                d.pmf = vec![1.0 / k_n as f64; k_n];
+                d.pmf = uniform_pmf(d.cfg.settings.max_delay + 1);
                 d.r.iter_mut().chain(d.r_pair.iter_mut()).chain(d.r_group.iter_mut()).for_each(|x| *x = 0.0);
             }
             fit_all(ds);
             Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
-            if fit_all(ds) < warm_objective {
+            let mut start = if fit_all(ds) < warm_objective {
                 ds.iter_mut().for_each(|d| d.cold_wins += 1);
+                uniform_pmf(ds[0].pmf.len())
             } else {
                 for (d, w) in ds.iter_mut().zip(warm) {
                     (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
                 }
-            }
+                previous
+            };
+            ds.iter_mut().for_each(|d| d.rounds += 1);
             for round in 2..=rounds {
+                if tolerance > 0.0 && settled(&start, &ds[0].pmf, tolerance) {
+                    break;
+                }
+                start.clone_from(&ds[0].pmf);
                 Self::fit_pmf_all(ds, weighted_passes(rule, rounds, round));
                 fit_all(ds);
+                ds.iter_mut().for_each(|d| d.rounds += 1);
             }
         }
         let joint = ds.iter().any(Deconvolver::joint_on);
@@ -466,6 +497,7 @@ impl Deconvolver {
             figures: vec![
                 ("delay/refits", self.refits as f64),
                 ("delay/cold_start_wins", self.cold_wins as f64),
+                ("delay/rounds", self.rounds as f64),
                 ("delay/joint_drops", self.joint_drops as f64),
                 ("delay/joint_factorisations", self.joint_factorisations as f64),
                 ("learner/pairs_seen", self.stats.n() as f64),
@@ -499,6 +531,7 @@ pub(crate) mod tests {
             refit_every: 1_000_000,
             refit_growth: 8,
             pmf_rounds: 1,
+            pmf_tolerance: 0.0,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,

@@ -606,4 +606,47 @@ mod tests {
             assert!((pmf_median(p) - 4.0).abs() < 0.5, "median {}", pmf_median(p));
         }
     }
+
+    /// The settle rule of `pmf_tolerance`, by hand: from (½, ¼, ¼) to (½, ⅜, ⅛) every
+    /// p̂(k) moved by at most ⅛, so a tolerance of ⅛ calls it settled and 0.1 does not.
+    #[test]
+    fn settled_by_hand() {
+        use crate::deconv::settled;
+        let (from, to) = ([0.5, 0.25, 0.25], [0.5, 0.375, 0.125]);
+        assert!(settled(&from, &to, 0.125));
+        assert!(!settled(&from, &to, 0.1));
+        assert!(settled(&to, &to, 0.0));
+    }
+
+    /// `pmf_tolerance` stops a refit's rounds once p̂ settles, on the noise-free trace of
+    /// `more_rounds_converge_within_one_refit`: a tolerance no round can meet runs all
+    /// twelve rounds, bit for bit as with none; one every round meets stops after the
+    /// first, bit for bit as one round; 10⁻³ stops in between, closer to p than one round.
+    #[test]
+    fn rounds_stop_once_the_pmf_settles() {
+        let k = 8;
+        let p = vec![0.0, 0.0, 0.1, 0.6, 0.3, 0.0, 0.0, 0.0, 0.0];
+        let truth = [0.0, 10.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let fit = |rounds: u32, tolerance: f64| {
+            let mut c = cfg(k, None);
+            (c.settings.pmf_rounds, c.settings.pmf_tolerance) = (rounds, tolerance);
+            let mut d = Deconvolver::new(c, truth.len(), 1);
+            feed_expected(&mut d, &p, &truth, 20_000, 8);
+            d.refit();
+            let bits: Vec<u64> = d.pmf().iter().map(|x| x.to_bits()).collect();
+            let err: f64 = d.pmf().iter().zip(&p).map(|(a, b)| (a - b).abs()).sum();
+            (bits, err, d.rounds())
+        };
+        let (all, _, n_all) = fit(12, 0.0);
+        assert_eq!(n_all, 12);
+        let (tiny, _, n_tiny) = fit(12, 1e-300);
+        assert_eq!((tiny, n_tiny), (all, 12));
+        let (one, err_one, n_one) = fit(1, 0.0);
+        assert_eq!(n_one, 1);
+        let (first, _, n_first) = fit(12, 1.0);
+        assert_eq!((first, n_first), (one, 1));
+        let (_, err_mid, n_mid) = fit(12, 1e-3);
+        assert!(1 < n_mid && n_mid < 12, "{n_mid} rounds at 1e-3");
+        assert!(err_mid < err_one, "L1 error {err_mid} after {n_mid} rounds, {err_one} after one");
+    }
 }
