@@ -136,6 +136,7 @@ pub(crate) mod tests {
             refit_growth: 8,
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
+            cold_start_backoff: 0,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,

@@ -212,10 +212,20 @@ pub struct DeconvSettings {
     /// τ ≥ 0: a refit's rounds stop early once the delay pmf has settled, that is after
     /// the first round that moved no p̂(k) by more than τ from where the round started
     /// (the kept start's first round starts from the previous p̂, or from the uniform pmf).
-    /// 0 (the default): every one of the `pmf_rounds` rounds runs. A small τ such as 1e-4
-    /// saves the late refits' rounds, where p̂ moves by 1e-5 or less, and keeps the early
-    /// ones, where the rounds matter (docs/performance.md, "Rounds until the pmf settles").
+    /// 0 (the default): every one of the `pmf_rounds` rounds runs. τ = 1e-4 skips late
+    /// rounds, which move p̂ by 1e-5 or less, and earned what τ = 0 earns on paper-9x9
+    /// and the maze with 10 % and 5 % less work (docs/performance.md, "Rounds until
+    /// the pmf settles, and fewer cold starts").
     pub pmf_tolerance: f64,
+    /// n ≥ 0: after the cold start (the alternation from the uniform pmf, which a refit
+    /// compares with the one from the previous p̂) has lost n refits in a row, the next
+    /// 2^(losses − n) refits (at most 64) skip it; a win starts the count again. 0 (the
+    /// default): every refit tries it. The cold start gets an alternation locked onto a
+    /// wrong delay out again, at the cost of a fit of p̂ and two of R̂ per refit; with
+    /// n = 2 and τ = 1e-4 paper-9x9 takes a quarter less work, but its worst seed under
+    /// Poisson 13 earned less (docs/performance.md, "Rounds until the pmf settles, and
+    /// fewer cold starts").
+    pub cold_start_backoff: u32,
     /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
     /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
     /// is none, which the agent then seeks; a cost put on the moves around a bump, which
@@ -249,6 +259,7 @@ impl Default for DeconvSettings {
             refit_growth: 8,
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
+            cold_start_backoff: 0,
             refit_on_surprise: 0.0,
             told_delay: None,
         }

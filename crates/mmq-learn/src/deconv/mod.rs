@@ -154,8 +154,12 @@ pub struct Deconvolver {
     rss: Option<f64>,
     next_refit: u64,
     refits: u64,
-    /// Refits at which the cold start (from the uniform pmf) won.
+    /// Refits that tried the cold start (from the uniform pmf), and those at which it won.
+    cold_starts: u64,
     cold_wins: u64,
+    /// Cold starts lost in a row, and the refits still to skip it (`cold_start_backoff`).
+    cold_losses: u32,
+    cold_skip: u32,
     /// Rounds of the alternation run by the kept start, over all refits (`pmf_rounds` per
     /// refit, fewer once the pmf settles with `pmf_tolerance`).
     rounds: u64,
@@ -212,7 +216,10 @@ impl Deconvolver {
             hist_r: Vec::new(),
             rss: None,
             refits: 0,
+            cold_starts: 0,
             cold_wins: 0,
+            cold_losses: 0,
+            cold_skip: 0,
             rounds: 0,
             joint_drops: 0,
             joint_factorisations: 0,
@@ -289,6 +296,28 @@ impl Deconvolver {
         self.refits
     }
 
+    /// Counts a cold start and whether it `won`. With `cold_start_backoff` n > 0, after
+    /// the n-th loss in a row the next 2^(losses − n) refits (at most 64) skip it; a win
+    /// starts the count again.
+    fn cold_start_ended(&mut self, won: bool) {
+        self.cold_starts += 1;
+        if won {
+            self.cold_wins += 1;
+            self.cold_losses = 0;
+            return;
+        }
+        self.cold_losses = self.cold_losses.saturating_add(1);
+        let n = self.cfg.settings.cold_start_backoff;
+        if n > 0 && self.cold_losses >= n {
+            self.cold_skip = 1 << (self.cold_losses - n).min(6);
+        }
+    }
+
+    /// Cold starts tried so far (`delay/cold_starts`).
+    pub fn cold_starts(&self) -> u64 {
+        self.cold_starts
+    }
+
     /// Rounds of the alternation run so far, over all refits (`delay/rounds`).
     pub fn rounds(&self) -> u64 {
         self.rounds
@@ -351,13 +380,15 @@ impl Deconvolver {
         }
     }
 
-    /// Takes over `other`'s delay estimate and its counters (refits,
-    /// cold-start wins, rounds, joint-test drops): a deconvolver rebuilt from the history
+    /// Takes over `other`'s delay estimate and its counters (refits, cold starts and
+    /// their wins and backoff, rounds, joint-test drops): a deconvolver rebuilt from the history
     /// continues where `other` was.
     pub(crate) fn inherit(&mut self, other: &Deconvolver) {
         self.pmf.clone_from(&other.pmf);
         self.refits = other.refits;
+        self.cold_starts = other.cold_starts;
         self.cold_wins = other.cold_wins;
+        (self.cold_losses, self.cold_skip) = (other.cold_losses, other.cold_skip);
         self.rounds = other.rounds;
         self.joint_drops = other.joint_drops;
         self.joint_factorisations = other.joint_factorisations;
@@ -407,26 +438,35 @@ impl Deconvolver {
             let previous = ds[0].pmf.clone();
             Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
             let warm_objective = fit_all(ds);
-            let warm: Vec<_> = ds
-                .iter()
-                .map(|d| {
-                    (d.pmf.clone(), d.r.clone(), d.r_pair.clone(), d.r_group.clone(), d.rss, d.median_se)
-                })
-                .collect();
-            for d in ds.iter_mut() {
-                d.pmf = uniform_pmf(d.cfg.settings.max_delay + 1);
-                d.r.iter_mut().chain(d.r_pair.iter_mut()).chain(d.r_group.iter_mut()).for_each(|x| *x = 0.0);
-            }
-            fit_all(ds);
-            Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
-            let mut start = if fit_all(ds) < warm_objective {
-                ds.iter_mut().for_each(|d| d.cold_wins += 1);
-                uniform_pmf(ds[0].pmf.len())
-            } else {
-                for (d, w) in ds.iter_mut().zip(warm) {
-                    (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
-                }
+            let mut start = if ds[0].cold_skip > 0 {
+                ds.iter_mut().for_each(|d| d.cold_skip -= 1);
                 previous
+            } else {
+                let warm: Vec<_> = ds
+                    .iter()
+                    .map(|d| {
+                        (d.pmf.clone(), d.r.clone(), d.r_pair.clone(), d.r_group.clone(), d.rss, d.median_se)
+                    })
+                    .collect();
+                for d in ds.iter_mut() {
+                    d.pmf = uniform_pmf(d.cfg.settings.max_delay + 1);
+                    d.r.iter_mut()
+                        .chain(d.r_pair.iter_mut())
+                        .chain(d.r_group.iter_mut())
+                        .for_each(|x| *x = 0.0);
+                }
+                fit_all(ds);
+                Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
+                let won = fit_all(ds) < warm_objective;
+                ds.iter_mut().for_each(|d| d.cold_start_ended(won));
+                if won {
+                    uniform_pmf(ds[0].pmf.len())
+                } else {
+                    for (d, w) in ds.iter_mut().zip(warm) {
+                        (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
+                    }
+                    previous
+                }
             };
             ds.iter_mut().for_each(|d| d.rounds += 1);
             for round in 2..=rounds {
@@ -496,6 +536,7 @@ impl Deconvolver {
         Diagnostics {
             figures: vec![
                 ("delay/refits", self.refits as f64),
+                ("delay/cold_starts", self.cold_starts as f64),
                 ("delay/cold_start_wins", self.cold_wins as f64),
                 ("delay/rounds", self.rounds as f64),
                 ("delay/joint_drops", self.joint_drops as f64),
@@ -532,6 +573,7 @@ pub(crate) mod tests {
             refit_growth: 8,
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
+            cold_start_backoff: 0,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,

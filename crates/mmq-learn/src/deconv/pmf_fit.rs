@@ -649,4 +649,57 @@ mod tests {
         assert!(1 < n_mid && n_mid < 12, "{n_mid} rounds at 1e-3");
         assert!(err_mid < err_one, "L1 error {err_mid} after {n_mid} rounds, {err_one} after one");
     }
+
+    /// `cold_start_backoff` n = 2, by hand: losses 1 and 2 in a row, then 2^0 = 1 refit
+    /// skips the cold start; a third loss, 2 skip; a fourth, 4; a win starts again; n = 0
+    /// never skips.
+    #[test]
+    fn cold_start_backoff_by_hand() {
+        let with = |n: u32| {
+            let mut c = cfg(4, None);
+            c.settings.cold_start_backoff = n;
+            Deconvolver::new(c, 2, 1)
+        };
+        let mut d = with(2);
+        let mut skips = Vec::new();
+        for won in [false, false, false, false, true, false] {
+            d.cold_start_ended(won);
+            skips.push((d.cold_losses, d.cold_skip));
+            d.cold_skip = 0;
+        }
+        assert_eq!(skips, [(1, 0), (2, 1), (3, 2), (4, 4), (0, 0), (1, 0)]);
+        assert_eq!((d.cold_starts, d.cold_wins), (6, 1));
+        let mut off = with(0);
+        (0..10).for_each(|_| off.cold_start_ended(false));
+        assert_eq!((off.cold_losses, off.cold_skip), (10, 0));
+    }
+
+    /// The backoff reaches the refits: on a noisy trace refitted every 500 steps, n = 1
+    /// tries the cold start at fewer refits than n = 0 (which tries it at every one), and
+    /// it lost some of those it tried (only a loss makes a refit skip it).
+    #[test]
+    fn cold_start_backoff_skips_refits() {
+        let run = |n: u32| {
+            let mut c = cfg(12, None);
+            (c.settings.pmf_weighted, c.settings.cold_start_backoff) = (true, n);
+            let mut d = Deconvolver::new(c, 2, 1);
+            let mut rng = rng_from_seed(3);
+            let mut due = vec![0.0; 12_000 + 13];
+            for t in 0..12_000 {
+                let slot = rng.random_bool(0.2);
+                if slot {
+                    due[t + rng.random_range(2..=6)] += 1.0;
+                }
+                d.observe(usize::from(slot), due[t]);
+                if (t + 1) % 500 == 0 {
+                    d.refit();
+                }
+            }
+            (d.refits(), d.cold_starts(), d.cold_wins)
+        };
+        let (refits, every, _) = run(0);
+        assert_eq!((refits, every), (24, 24));
+        let (_, tried, won) = run(1);
+        assert!(tried < refits && won < tried, "cold starts {tried} (won {won}) of {refits} refits");
+    }
 }
