@@ -342,6 +342,31 @@ mod tests {
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
 
+    /// A noisy trace of one reward source: at each of `steps` steps pair 1 is taken with
+    /// probability 0.2 (pair 0 otherwise), and each take delivers 1 after a delay drawn
+    /// uniformly from `delays` (seeded by `seed`); with `refit_every`, a refit after every
+    /// that many steps.
+    fn feed_noisy(
+        d: &mut Deconvolver,
+        steps: usize,
+        delays: std::ops::RangeInclusive<usize>,
+        seed: u64,
+        refit_every: Option<usize>,
+    ) {
+        let mut rng = rng_from_seed(seed);
+        let mut due = vec![0.0; steps + delays.end() + 1];
+        for t in 0..steps {
+            let slot = rng.random_bool(0.2);
+            if slot {
+                due[t + rng.random_range(delays.clone())] += 1.0;
+            }
+            d.observe(usize::from(slot), due[t]);
+            if refit_every.is_some_and(|n| (t + 1) % n == 0) {
+                d.refit();
+            }
+        }
+    }
+
     impl Deconvolver {
         /// [`Deconvolver::weighted_stats`] by a pass over every step with a window of the
         /// non-zero predictions among the last K + 1.
@@ -484,16 +509,7 @@ mod tests {
             c.settings.pmf_weighted = true;
             c.settings.refit_every = 1000;
             let mut d = Deconvolver::new(c, 2, 1);
-            let mut rng = rng_from_seed(100 + seed);
-            let steps = 4000;
-            let mut due = vec![0.0; steps + k + 1];
-            for t in 0..steps {
-                let slot = rng.random_bool(0.2);
-                if slot {
-                    due[t + rng.random_range(0..=8)] += 1.0;
-                }
-                d.observe(usize::from(slot), due[t]);
-            }
+            feed_noisy(&mut d, 4000, 0..=8, 100 + seed, None);
             d.refit();
             medians.push(pmf_median(d.pmf()));
             ses.push(d.median_se().expect("a reweighted fit").steps);
@@ -581,15 +597,7 @@ mod tests {
             (c.settings.pmf_weighted, c.settings.pmf_weighted_rounds, c.settings.pmf_rounds) =
                 (true, rule, rounds);
             let mut d = Deconvolver::new(c, 2, 1);
-            let mut rng = rng_from_seed(8);
-            let mut due = vec![0.0; 4000 + 13];
-            for t in 0..4000 {
-                let slot = rng.random_bool(0.2);
-                if slot {
-                    due[t + rng.random_range(0..=8)] += 1.0;
-                }
-                d.observe(usize::from(slot), due[t]);
-            }
+            feed_noisy(&mut d, 4000, 0..=8, 8, None);
             d.refit();
             (d.pmf().to_vec(), d.median_se())
         };
@@ -683,18 +691,7 @@ mod tests {
             let mut c = cfg(12, None);
             (c.settings.pmf_weighted, c.settings.cold_start_backoff) = (true, n);
             let mut d = Deconvolver::new(c, 2, 1);
-            let mut rng = rng_from_seed(3);
-            let mut due = vec![0.0; 12_000 + 13];
-            for t in 0..12_000 {
-                let slot = rng.random_bool(0.2);
-                if slot {
-                    due[t + rng.random_range(2..=6)] += 1.0;
-                }
-                d.observe(usize::from(slot), due[t]);
-                if (t + 1) % 500 == 0 {
-                    d.refit();
-                }
-            }
+            feed_noisy(&mut d, 12_000, 2..=6, 3, Some(500));
             (d.refits(), d.cold_starts(), d.cold_wins)
         };
         let (refits, every, _) = run(0);
