@@ -269,6 +269,10 @@ pub fn run_seed_on<E: Env + Telemetry>(
     make: impl Fn() -> Result<E, LabError>,
 ) -> Result<SeedResult, LabError> {
     let clock = Instant::now();
+    // This seed holds one of the worker threads; its learner may borrow another for work
+    // that changes no result while one is free (`mmq_learn::spare`).
+    mmq_learn::spare::set_threads(rayon::current_num_threads());
+    let _job = mmq_learn::spare::Job::start();
     let env = make()?;
     let mut learner = cfg.learner.build(env.num_states(), env.num_actions(), mem_limit)?;
     let seeds = SeedTree::new(seed);

@@ -4,6 +4,11 @@
 //! run of 150,000 steps (the refits grow sparser with t, so the cost per step depends on
 //! the horizon); throughput in steps per second. Results: docs/performance.md.
 //!
+//! Two groups: `deconv-model-scaling` on one core, as a seed runs when every core has a
+//! seed of its own, and `deconv-model-scaling-spare-core` with a second core the learner
+//! may borrow (`mmq_learn::spare`: a refit's cold start runs beside its warm start), as
+//! one seed of `mmq run` runs on a 2-core machine. The fits are the same in both.
+//!
 //! `cargo bench --workspace --bench deconv_scaling` (one world: append its name, e.g.
 //! `-- open-30x30`).
 
@@ -49,14 +54,19 @@ fn bench(c: &mut Criterion) {
         params: mmq_learn::spec::Params { epsilon: 0.05, q0: 10.0, ..Default::default() },
         ..LearnerSpec::new(LearnerKind::DeconvModel)
     };
-    let mut g = c.benchmark_group("deconv-model-scaling");
-    g.throughput(Throughput::Elements(STEPS));
-    g.sample_size(10);
-    for name in ["paper-9x9", "maze-15x15", "open-30x30", "open-50x50"] {
-        let w = world(name);
-        g.bench_function(name, |b| b.iter(|| run(&spec, &w)));
+    for (group, spare_core) in [("deconv-model-scaling", false), ("deconv-model-scaling-spare-core", true)] {
+        // This thread runs a learner; with two threads, the other is free to lend.
+        mmq_learn::spare::set_threads(if spare_core { 2 } else { 1 });
+        let _job = mmq_learn::spare::Job::start();
+        let mut g = c.benchmark_group(group);
+        g.throughput(Throughput::Elements(STEPS));
+        g.sample_size(10);
+        for name in ["paper-9x9", "maze-15x15", "open-30x30", "open-50x50"] {
+            let w = world(name);
+            g.bench_function(name, |b| b.iter(|| run(&spec, &w)));
+        }
+        g.finish();
     }
-    g.finish();
 }
 
 criterion_group!(benches, bench);

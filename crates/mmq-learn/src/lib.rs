@@ -33,6 +33,7 @@ pub mod q_lambda;
 pub mod qlearning;
 pub mod sarsa_lambda;
 pub mod settings;
+pub mod spare;
 pub mod spec;
 mod surprise;
 pub mod table;

@@ -129,10 +129,15 @@ impl CoCounts {
         }
     }
 
+    /// Whether [`Self::merge`] over `n` pairs has anything to do.
+    pub(crate) fn merge_due(&self, n: usize) -> bool {
+        !self.pending.is_empty() || self.merged.n() != n
+    }
+
     /// Merges the pending keys into the sorted lists and indexes them over `n` pairs (at
     /// least every pair in them; the counts do not depend on when).
     pub(crate) fn merge(&mut self, n: usize) {
-        if self.pending.is_empty() && self.merged.n() == n {
+        if !self.merge_due(n) {
             return;
         }
         let mut new = std::mem::take(&mut self.pending);

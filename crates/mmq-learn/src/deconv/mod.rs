@@ -53,15 +53,20 @@ mod gram;
 mod linalg;
 mod pmf_fit;
 mod qp;
+mod refit;
 mod reward_fit;
 mod stats;
 
 pub(crate) use counts::MAX_PAIRS;
 pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
+pub(crate) use refit::next_refit_after;
+#[cfg(test)]
+use refit::{settled, weighted_passes};
 
-use crate::settings::{DeconvSettings, WeightedRounds};
+use crate::settings::DeconvSettings;
 use crate::{DelayEstimate, Diagnostics, Table};
 use stats::{LagStats, UNSEEN};
+use std::sync::Arc;
 
 /// Penalty of a pair feature relative to a state feature (state features on).
 const PAIR_PENALTY: f64 = 1.25;
@@ -100,33 +105,6 @@ pub(crate) fn threshold_in_se(significance: f64, pairs: usize, num_actions: usiz
     significance * (2.0 * m.ln()).sqrt()
 }
 
-/// The step of the next refit after one at step `t`: every `refit_every` steps early on,
-/// every t/`refit_growth` later.
-pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64) -> u64 {
-    t + settings.refit_every.max(t / settings.refit_growth)
-}
-
-/// The reweighted passes of the fits of the delay pmf in round `round` (1: both starts) of
-/// a refit's `rounds` (`pmf_rounds`): [`WEIGHTED_PASSES`] in the fits a refit can end with
-/// (the last round) and, unless `rule` (`pmf_weighted_rounds`) is `last`, in every other.
-pub(crate) fn weighted_passes(rule: WeightedRounds, rounds: u32, round: u32) -> usize {
-    match rule {
-        WeightedRounds::Last if round < rounds => 0,
-        _ => WEIGHTED_PASSES,
-    }
-}
-
-/// The uniform pmf on 0..`k_n`: the cold start of a refit.
-fn uniform_pmf(k_n: usize) -> Vec<f64> {
-    vec![1.0 / k_n as f64; k_n]
-}
-
-/// Whether a round of the alternation that took the delay pmf from `from` to `to` moved
-/// no p̂(k) by more than `tolerance` (`pmf_tolerance`): the rounds of the refit stop.
-fn settled(from: &[f64], to: &[f64], tolerance: f64) -> bool {
-    from.iter().zip(to).all(|(a, b)| (a - b).abs() <= tolerance)
-}
-
 /// The reward table R̂ and delay pmf p̂ of (D1)–(D2), refitted as data comes in.
 #[derive(Clone, Debug)]
 pub struct Deconvolver {
@@ -144,12 +122,14 @@ pub struct Deconvolver {
     succ: Vec<u32>,
     /// |A|: pair id x belongs to state x / |A|.
     num_actions: usize,
-    /// The lag co-occurrence counts and lagged reward sums (and the step count).
-    stats: LagStats,
+    /// The lag co-occurrence counts and lagged reward sums (and the step count). Shared
+    /// (copy on write) with the copy a refit's cold start runs on, which only reads them.
+    stats: Arc<LagStats>,
     /// Compact pair index and delivered reward of every step of the current run (for
-    /// the reweighted pmf fit; at most [`HISTORY_MAX`] steps, the oldest dropped).
-    hist_x: Vec<u32>,
-    hist_r: Vec<f64>,
+    /// the reweighted pmf fit; at most [`HISTORY_MAX`] steps, the oldest dropped); shared
+    /// as `stats` is.
+    hist_x: Arc<Vec<u32>>,
+    hist_r: Arc<Vec<f64>>,
     /// Residual sum of squares of the last fit of R (None before the first).
     rss: Option<f64>,
     next_refit: u64,
@@ -211,9 +191,9 @@ impl Deconvolver {
             r_group: vec![0.0; num_pairs],
             succ: vec![UNSEEN; num_pairs],
             num_actions,
-            stats: LagStats::new(num_pairs, k, counts),
-            hist_x: Vec::new(),
-            hist_r: Vec::new(),
+            stats: Arc::new(LagStats::new(num_pairs, k, counts)),
+            hist_x: Arc::default(),
+            hist_r: Arc::default(),
             rss: None,
             refits: 0,
             cold_starts: 0,
@@ -296,23 +276,6 @@ impl Deconvolver {
         self.refits
     }
 
-    /// Counts a cold start and whether it `won`. With `cold_start_backoff` n > 0, after
-    /// the n-th loss in a row the next 2^(losses − n) refits (at most 64) skip it; a win
-    /// starts the count again.
-    fn cold_start_ended(&mut self, won: bool) {
-        self.cold_starts += 1;
-        if won {
-            self.cold_wins += 1;
-            self.cold_losses = 0;
-            return;
-        }
-        self.cold_losses = self.cold_losses.saturating_add(1);
-        let n = self.cfg.settings.cold_start_backoff;
-        if n > 0 && self.cold_losses >= n {
-            self.cold_skip = 1 << (self.cold_losses - n).min(6);
-        }
-    }
-
     /// Cold starts tried so far (`delay/cold_starts`).
     pub fn cold_starts(&self) -> u64 {
         self.cold_starts
@@ -369,14 +332,15 @@ impl Deconvolver {
 
     /// One step's statistics (no refit): pair `x` taken, `reward` delivered.
     pub(crate) fn record(&mut self, x: usize, reward: f64) {
-        let i = self.stats.record(x, reward);
+        let i = Arc::make_mut(&mut self.stats).record(x, reward);
         if self.cfg.settings.pmf_weighted && self.cfg.told.is_none() {
-            if self.hist_x.len() == HISTORY_MAX {
-                self.hist_x.drain(..HISTORY_MAX / 2);
-                self.hist_r.drain(..HISTORY_MAX / 2);
+            let (hx, hr) = (Arc::make_mut(&mut self.hist_x), Arc::make_mut(&mut self.hist_r));
+            if hx.len() == HISTORY_MAX {
+                hx.drain(..HISTORY_MAX / 2);
+                hr.drain(..HISTORY_MAX / 2);
             }
-            self.hist_x.push(i as u32);
-            self.hist_r.push(reward);
+            hx.push(i as u32);
+            hr.push(reward);
         }
     }
 
@@ -399,135 +363,11 @@ impl Deconvolver {
         self.sign = if sign == 0.0 { 0.0 } else { sign.signum() };
     }
 
-    /// Refits R̂ given p̂, then (when estimating) p̂ given R̂ and R̂ again.
-    ///
-    /// When estimating, a second alternation starts from the uniform pmf (a cold start)
-    /// and the fit with the lower penalised objective (D2) is kept: an alternation that
-    /// locked onto a wrong delay early (or found no reward at all) gets out again. The
-    /// kept fit then gets `pmf_rounds` − 1 more rounds of p̂ given R̂ and R̂ given p̂
-    /// (fewer with `pmf_tolerance` > 0: they stop once a round leaves p̂ where it was).
-    pub fn refit(&mut self) {
-        Self::refit_all(std::slice::from_mut(self));
-    }
-
-    /// [`Self::refit`] for deconvolvers that see the same pairs and share one delay pmf
-    /// (one per reward value, [`crate::decode`]): R̂ of each given p̂, then p̂ given all
-    /// of them (their least-squares systems summed), with the cold start compared on the
-    /// summed objective. One deconvolver: exactly `refit`.
-    pub(crate) fn refit_all(ds: &mut [Deconvolver]) {
-        if ds.is_empty() || ds[0].stats.pairs.is_empty() {
-            return;
-        }
-        // σ̂ from the previous fit (Σ r² before the first: an upper bound), shared by
-        // both starts so that their objectives compare.
-        let sigmas: Vec<f64> = ds
-            .iter()
-            .map(|d| (d.rss.unwrap_or(d.stats.sum_r2).max(0.0) / d.stats.t.max(1) as f64).sqrt())
-            .collect();
-        // The Gram matrices of this refit by pmf (the counts do not change during it): the
-        // joint test's is one of those before it, and rows read once are kept.
-        let mut grams: Vec<(Vec<f64>, gram::Gram, f64)> = Vec::new();
-        let mut fit_all = |ds: &mut [Deconvolver]| -> f64 {
-            let (g, a0) = Self::cached_gram(ds, &mut grams);
-            ds.iter_mut().zip(&sigmas).map(|(d, &sigma)| d.fit_rewards(g, a0, sigma, false)).sum()
-        };
-        fit_all(ds);
-        if ds[0].cfg.told.is_none() {
-            let (rule, rounds) = (ds[0].cfg.settings.pmf_weighted_rounds, ds[0].cfg.settings.pmf_rounds);
-            let tolerance = ds[0].cfg.settings.pmf_tolerance;
-            let previous = ds[0].pmf.clone();
-            Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
-            let warm_objective = fit_all(ds);
-            let mut start = if ds[0].cold_skip > 0 {
-                ds.iter_mut().for_each(|d| d.cold_skip -= 1);
-                previous
-            } else {
-                let warm: Vec<_> = ds
-                    .iter()
-                    .map(|d| {
-                        (d.pmf.clone(), d.r.clone(), d.r_pair.clone(), d.r_group.clone(), d.rss, d.median_se)
-                    })
-                    .collect();
-                for d in ds.iter_mut() {
-                    d.pmf = uniform_pmf(d.cfg.settings.max_delay + 1);
-                    d.r.iter_mut()
-                        .chain(d.r_pair.iter_mut())
-                        .chain(d.r_group.iter_mut())
-                        .for_each(|x| *x = 0.0);
-                }
-                fit_all(ds);
-                Self::fit_pmf_all(ds, weighted_passes(rule, rounds, 1));
-                let won = fit_all(ds) < warm_objective;
-                ds.iter_mut().for_each(|d| d.cold_start_ended(won));
-                if won {
-                    uniform_pmf(ds[0].pmf.len())
-                } else {
-                    for (d, w) in ds.iter_mut().zip(warm) {
-                        (d.pmf, d.r, d.r_pair, d.r_group, d.rss, d.median_se) = w;
-                    }
-                    previous
-                }
-            };
-            ds.iter_mut().for_each(|d| d.rounds += 1);
-            for round in 2..=rounds {
-                if tolerance > 0.0 && settled(&start, &ds[0].pmf, tolerance) {
-                    break;
-                }
-                start.clone_from(&ds[0].pmf);
-                Self::fit_pmf_all(ds, weighted_passes(rule, rounds, round));
-                fit_all(ds);
-                ds.iter_mut().for_each(|d| d.rounds += 1);
-            }
-        }
-        let joint = ds.iter().any(Deconvolver::joint_on);
-        let (g, a0) = if joint {
-            let (g, a0) = Self::cached_gram(ds, &mut grams);
-            (Some(g), a0)
-        } else {
-            (None, 0.0)
-        };
-        for (d, &sigma) in ds.iter_mut().zip(&sigmas) {
-            if let Some(g) = g
-                && d.joint_on()
-            {
-                d.fit_rewards(g, a0, sigma, true);
-            }
-            d.refits += 1;
-        }
-    }
-
-    /// [`Self::shared_gram`] under the current p̂, from `cache` when it holds the matrix
-    /// for the same p̂ (bit for bit; the counts must not have changed since), and a_0.
-    fn cached_gram<'c>(
-        ds: &mut [Deconvolver],
-        cache: &'c mut Vec<(Vec<f64>, gram::Gram, f64)>,
-    ) -> (&'c gram::Gram, f64) {
-        let same = |p: &[f64]| p.iter().zip(&ds[0].pmf).all(|(x, y)| x.to_bits() == y.to_bits());
-        let at = match cache.iter().position(|(p, _, _)| same(p)) {
-            Some(at) => at,
-            None => {
-                let (g, a) = Self::shared_gram(ds);
-                cache.push((ds[0].pmf.clone(), g, a[0]));
-                cache.len() - 1
-            }
-        };
-        let (_, g, a0) = &cache[at];
-        (g, *a0)
-    }
-
-    /// The Gram matrix of the first deconvolver's counts under its p̂, shared by all of
-    /// `ds` (they see the same pairs and share p̂), and the a_j.
-    fn shared_gram(ds: &mut [Deconvolver]) -> (gram::Gram, Vec<f64>) {
-        debug_assert!(ds.iter().all(|d| d.pmf == ds[0].pmf && d.stats.t == ds[0].stats.t));
-        ds[0].stats.merge();
-        ds[0].stats.gram(&ds[0].pmf)
-    }
-
     /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
     pub fn reset_history(&mut self) {
-        self.stats.reset_history();
-        self.hist_x.clear();
-        self.hist_r.clear();
+        Arc::make_mut(&mut self.stats).reset_history();
+        Arc::make_mut(&mut self.hist_x).clear();
+        Arc::make_mut(&mut self.hist_r).clear();
     }
 
     /// Diagnostics: the delay estimate p̂ (with its mean, median and the median's

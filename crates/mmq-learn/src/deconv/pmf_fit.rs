@@ -139,9 +139,11 @@ impl Deconvolver {
 
     /// p given R̂ of every deconvolver in `ds` (sharing one pmf): FISTA over the simplex
     /// on the sum of their systems ½ pᵀAp − cᵀp, then `passes` reweighted passes (with
-    /// `pmf_weighted`; none: plain least squares).
-    pub(super) fn fit_pmf_all(ds: &mut [Deconvolver], passes: usize) {
-        ds[0].stats.merge();
+    /// `pmf_weighted`; none: plain least squares). Returns false when there was nothing to
+    /// fit (R̂ zero) or the solve failed: p̂ and its median's standard error are then left
+    /// as they were.
+    pub(super) fn fit_pmf_all(ds: &mut [Deconvolver], passes: usize) -> bool {
+        ds[0].merge_counts();
         let k_n = ds[0].cfg.settings.max_delay + 1;
         let cfg = ds[0].cfg.clone();
         let mut systems: Vec<(usize, Vec<f64>, f64)> = Vec::new();
@@ -153,14 +155,14 @@ impl Deconvolver {
             total = add_system(total, (amat, cvec));
             systems.push((di, r, rm));
         }
-        let Some((mut amat, cvec)) = total else { return };
+        let Some((mut amat, cvec)) = total else { return false };
         let nu = cfg.settings.pmf_prior * rmax * rmax;
         let rho = cfg.settings.pmf_smoothness * rmax * rmax;
         let trace_u: f64 = (0..k_n).map(|i| amat[i * k_n + i]).sum();
         if rho > 0.0 {
             add_roughness(&mut amat, k_n, rho);
         }
-        let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &ds[0].pmf) else { return };
+        let Some(mut p) = solve_pmf(&amat, &cvec, nu, &vec![0.0; k_n], &ds[0].pmf) else { return false };
         let mut last = None;
         if cfg.settings.pmf_weighted && passes > 0 {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
@@ -195,6 +197,7 @@ impl Deconvolver {
             d.pmf.clone_from(&p);
             d.median_se = se;
         }
+        true
     }
 
     /// The non-zero predictions y_t = R̂(x_t) over the stored history, and the steps whose
@@ -378,7 +381,7 @@ mod tests {
             // The steps of the last K + 1 with y ≠ 0, oldest first: (step, y).
             let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
             let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
-            for (t, (&i, &rt)) in self.hist_x.iter().zip(&self.hist_r).enumerate() {
+            for (t, (&i, &rt)) in self.hist_x.iter().zip(self.hist_r.iter()).enumerate() {
                 let y = r[i as usize];
                 if y != 0.0 {
                     window.push_back((t, y));

@@ -131,6 +131,11 @@ impl LagStats {
         }
     }
 
+    /// Whether [`Self::merge`] has anything to do.
+    pub(crate) fn merge_due(&self) -> bool {
+        self.counts.as_ref().is_some_and(|c| c.merge_due(self.n()))
+    }
+
     fn merged(&self) -> &std::sync::Arc<Merged> {
         self.counts.as_ref().expect("statistics with co-occurrence counts").merged()
     }

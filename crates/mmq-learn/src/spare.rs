@@ -1,0 +1,136 @@
+//! Cores a learner may borrow for work whose result does not depend on where it runs.
+//!
+//! A run of `mmq` learns on one thread per seed. When fewer seeds run than the process
+//! has threads (one seed of `mmq run`, the last seeds of a sweep), the other cores idle;
+//! a learner can put one of them to work (the deconvolving learners run a refit's cold
+//! start beside its warm one). The runner says how many threads it runs learners on
+//! ([`set_threads`]) and counts the learners running ([`Job`]); a learner takes a core
+//! only while one is free ([`borrow`]), so that seeds in parallel never run more
+//! threads than there are. Without a runner (a learner used as a library, or from
+//! Python) no core is spare and everything runs on the caller's thread.
+//!
+//! Borrowing changes no result: what runs on the borrowed core is a computation the
+//! learner would otherwise make on its own thread, bit for bit.
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+/// Threads to run learners on, and learners running plus cores lent.
+#[derive(Debug)]
+struct Lender {
+    threads: AtomicUsize,
+    busy: AtomicUsize,
+}
+
+impl Lender {
+    const fn new() -> Self {
+        Self { threads: AtomicUsize::new(0), busy: AtomicUsize::new(0) }
+    }
+
+    fn take(&self) {
+        self.busy.fetch_add(1, Ordering::AcqRel);
+    }
+
+    fn give_back(&self) {
+        self.busy.fetch_sub(1, Ordering::AcqRel);
+    }
+
+    /// Takes a core if one is neither running a learner nor lent.
+    fn lend(&self) -> bool {
+        let threads = self.threads.load(Ordering::Relaxed);
+        self.busy
+            .fetch_update(Ordering::AcqRel, Ordering::Acquire, |busy| (busy < threads).then(|| busy + 1))
+            .is_ok()
+    }
+}
+
+/// The process's: the runner's threads (0: no runner).
+static LENDER: Lender = Lender::new();
+
+#[cfg(test)]
+thread_local! {
+    /// Tests: whether refits on this thread always (Some(true)) or never borrow a core,
+    /// whatever the process's counts.
+    pub(crate) static FORCE: std::cell::Cell<Option<bool>> = const { std::cell::Cell::new(None) };
+}
+
+/// The runner runs learners on `n` threads (0 or 1: no core is ever spare).
+pub fn set_threads(n: usize) {
+    LENDER.threads.store(n, Ordering::Relaxed);
+}
+
+/// A learner running: holds one of the runner's threads until dropped.
+#[derive(Debug)]
+#[must_use = "the job counts as running only while this is held"]
+pub struct Job(());
+
+impl Job {
+    /// A learner starts running on one of the runner's threads.
+    pub fn start() -> Self {
+        LENDER.take();
+        Self(())
+    }
+}
+
+impl Drop for Job {
+    fn drop(&mut self) {
+        LENDER.give_back();
+    }
+}
+
+/// A borrowed core, given back when dropped.
+#[derive(Debug)]
+pub(crate) struct Core {
+    counted: bool,
+}
+
+impl Drop for Core {
+    fn drop(&mut self) {
+        if self.counted {
+            LENDER.give_back();
+        }
+    }
+}
+
+/// A core when one of the runner's threads is neither running a learner nor lent.
+pub(crate) fn borrow() -> Option<Core> {
+    #[cfg(test)]
+    if let Some(force) = FORCE.with(std::cell::Cell::get) {
+        return force.then(|| Core { counted: false });
+    }
+    LENDER.lend().then(|| Core { counted: true })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// With two threads and one job, one core is lent at a time and comes back when the
+    /// loan ends; with two jobs none is; with no threads none ever is.
+    #[test]
+    fn lends_only_free_cores() {
+        let l = Lender::new();
+        assert!(!l.lend(), "no runner, no spare core");
+        l.threads.store(2, Ordering::Relaxed);
+        l.take();
+        assert!(l.lend());
+        assert!(!l.lend(), "the one free core is lent already");
+        l.give_back();
+        l.take();
+        assert!(!l.lend(), "two jobs on two threads leave none free");
+        l.give_back();
+        assert!(l.lend(), "a job ended: its core is free");
+    }
+
+    /// A loan refused (no runner in this test binary) leaves the process's count as it
+    /// was, and so does a loan forced for a test.
+    #[test]
+    fn a_refused_loan_counts_nothing() {
+        for _ in 0..3 {
+            assert!(borrow().is_none());
+        }
+        FORCE.with(|f| f.set(Some(true)));
+        drop(borrow().expect("forced"));
+        FORCE.with(|f| f.set(None));
+        assert_eq!(LENDER.busy.load(Ordering::Acquire), 0);
+    }
+}
