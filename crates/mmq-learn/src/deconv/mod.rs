@@ -460,6 +460,24 @@ pub(crate) mod tests {
         assert_eq!(recent(&d), [0]);
     }
 
+    /// A noisy walk over the 30 pairs of 10 states × 3 actions, some rewarded (2 and −1 at
+    /// every fifth pair from the fourth): `steps` steps of (pair, next state, delivery),
+    /// the pair among the first six with probability 0.7, the delivery Σ_j p(j) R(x_{t−j})
+    /// plus uniform noise on ±0.5 (seeded by `seed`).
+    pub(crate) fn noisy_walk(p: &[f64], steps: usize, seed: u64) -> Vec<(usize, usize, f64)> {
+        let truth: Vec<f64> = (0..30).map(|x| [0.0, 0.0, 0.0, 2.0, -1.0][x % 5]).collect();
+        let mut rng = rng_from_seed(seed);
+        let mut xs = Vec::new();
+        let mut out = Vec::with_capacity(steps);
+        for t in 0..steps {
+            let x = if rng.random_bool(0.7) { rng.random_range(0..6) } else { rng.random_range(0..30) };
+            xs.push(x);
+            let mean: f64 = (0..p.len().min(t + 1)).map(|j| p[j] * truth[xs[t - j]]).sum();
+            out.push((x, (x * 7 + t % 3) % 10, mean + rng.random_range(-0.5..0.5)));
+        }
+        out
+    }
+
     /// Feeds `d` `steps` pairs drawn at random from `truth`'s, each step delivering the
     /// expected reward Σ_j p(j) R(x_{t−j}) (noise-free).
     pub(crate) fn feed_expected(d: &mut Deconvolver, p: &[f64], truth: &[f64], steps: usize, seed: u64) {

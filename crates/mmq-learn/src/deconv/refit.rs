@@ -303,10 +303,8 @@ impl Deconvolver {
 #[cfg(test)]
 mod tests {
     use crate::deconv::Deconvolver;
-    use crate::deconv::tests::cfg;
+    use crate::deconv::tests::{cfg, noisy_walk};
     use crate::spare::FORCE;
-    use mmq_core::seed::rng_from_seed;
-    use rand::RngExt;
 
     /// The refit in the plain sequential order, on the deconvolvers themselves: the warm
     /// start's first round, the cold start's in place (the warm start's fit put back
@@ -376,20 +374,14 @@ mod tests {
         (s.lasso, s.significance, s.reward_prior, s.joint_test, s.successor_groups) =
             (0.05, 1.0, 1.0, joint, true);
         (s.pmf_weighted, s.pmf_rounds, s.pmf_significance, s.pmf_prior) = (true, rounds, 1.0, 0.1);
-        let truth: Vec<f64> = (0..30).map(|x| [0.0, 0.0, 0.0, 2.0, -1.0][x % 5]).collect();
-        let p = [0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05, 0.0, 0.0];
+        let walk = noisy_walk(&[0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05, 0.0, 0.0], 8000, 23);
         // beside: None for the plain order, else whether the cold start may have a thread.
         let run = |beside: Option<bool>| {
             FORCE.with(|f| f.set(beside));
             let mut d = Deconvolver::new(c.clone(), 10, 3);
-            let mut rng = rng_from_seed(23);
-            let mut xs = Vec::new();
-            for t in 0..8000 {
-                let x = if rng.random_bool(0.7) { rng.random_range(0..6) } else { rng.random_range(0..30) };
-                xs.push(x);
-                let mean: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
-                d.record_successor(x, (x * 7 + t % 3) % 10);
-                d.record(x, mean + rng.random_range(-0.5..0.5));
+            for (t, &(x, next, delivered)) in walk.iter().enumerate() {
+                d.record_successor(x, next);
+                d.record(x, delivered);
                 if (t + 1) % 400 == 0 {
                     match beside {
                         None => refit_in_place(std::slice::from_mut(&mut d)),

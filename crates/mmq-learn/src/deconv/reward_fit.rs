@@ -467,9 +467,7 @@ impl Deconvolver {
 #[cfg(test)]
 mod tests {
     use crate::deconv::Deconvolver;
-    use crate::deconv::tests::cfg;
-    use mmq_core::seed::rng_from_seed;
-    use rand::RngExt;
+    use crate::deconv::tests::{cfg, noisy_walk};
 
     thread_local! {
         /// Whether the fits of this thread test every feature in every sweep.
@@ -489,18 +487,12 @@ mod tests {
         let s = &mut c.settings;
         (s.lasso, s.significance, s.reward_prior, s.joint_test, s.successor_groups, s.refit_every) =
             (0.05, 1.0, 1.0, 1.0, true, 700);
-        let truth: Vec<f64> = (0..30).map(|x| [0.0, 0.0, 0.0, 2.0, -1.0][x % 5]).collect();
-        let p = [0.1, 0.2, 0.4, 0.2, 0.1, 0.0, 0.0];
+        let walk = noisy_walk(&[0.1, 0.2, 0.4, 0.2, 0.1, 0.0, 0.0], 6000, 17);
         let run = |screened: bool| {
             UNSCREENED.with(|u| u.set(!screened));
             let mut d = Deconvolver::new(c.clone(), 10, 3);
-            let mut rng = rng_from_seed(17);
-            let mut xs = Vec::new();
-            for t in 0..6000 {
-                let x = if rng.random_bool(0.7) { rng.random_range(0..6) } else { rng.random_range(0..30) };
-                xs.push(x);
-                let mean: f64 = (0..=k.min(t)).map(|j| p[j] * truth[xs[t - j]]).sum();
-                d.observe_transition(x, (x * 7 + t % 3) % 10, mean + rng.random_range(-0.5..0.5));
+            for &(x, next, delivered) in &walk {
+                d.observe_transition(x, next, delivered);
             }
             UNSCREENED.with(|u| u.set(false));
             d
