@@ -535,6 +535,29 @@ mod tests {
         assert_eq!(m.reward_values.len(), 2);
     }
 
+    /// The two values' fits are the same when the first is fitted on a second thread
+    /// (and the cold starts run on a third) as on one thread, bit for bit.
+    #[test]
+    fn two_values_fit_the_same_on_any_thread() {
+        let run = |beside: bool| {
+            crate::spare::FORCE.with(|f| f.set(Some(beside)));
+            let mut d = ValueDeconvolver::new(config(), 3, 2);
+            chain(20_000, true, |x, s2, r| {
+                d.observe_transition(x, s2, r);
+            });
+            crate::spare::FORCE.with(|f| f.set(None));
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            let parts: Vec<_> =
+                d.parts().iter().map(|p| (bits(p.rewards()), p.refits(), p.rounds())).collect();
+            (bits(d.pmf()), parts, d.diagnostics().figures)
+        };
+        let alone = run(false);
+        assert_eq!(alone.1.len(), 2, "two values found");
+        for _ in 0..3 {
+            assert_eq!(run(true), alone);
+        }
+    }
+
     #[test]
     fn deliveries_decode_into_the_fewest_values() {
         let v = [-1.0, 10.0];

@@ -164,36 +164,47 @@ impl CoCounts {
         });
         // Triples not seen before, by earlier and by later pair.
         let (mut add_from, mut add_to) = (vec![0usize; n], vec![0usize; n]);
-        let (keys, counts) =
-            merge_runs(std::mem::take(&mut old.keys), std::mem::take(&mut old.counts), &fresh, &runs, |k| {
+        let (old_keys, old_counts) = (std::mem::take(&mut old.keys), std::mem::take(&mut old.counts));
+        let by_earlier = |fresh: &[u64], runs: &[u32]| {
+            merge_runs(old_keys, old_counts, fresh, runs, |k| {
                 let (i, i2, _) = unpack(k);
                 add_from[i] += 1;
                 add_to[i2] += 1;
-            });
-        // The new keys transposed, in their key order: a stable counting sort of the
-        // key-ordered new keys by later pair.
-        let mut at = vec![0usize; n + 1];
-        for &k in &fresh {
-            at[unpack(k).1 + 1] += 1;
-        }
-        for i in 0..n {
-            at[i + 1] += at[i];
-        }
-        let (mut tfresh, mut truns) = (vec![0u64; fresh.len()], vec![0u32; fresh.len()]);
-        for (&k, &c) in fresh.iter().zip(&runs) {
-            let (i, i2, j) = unpack(k);
-            tfresh[at[i2]] = key(i2, i, j);
-            truns[at[i2]] = c;
-            at[i2] += 1;
-        }
-        drop((fresh, runs));
-        let (tkeys, tcounts) = merge_runs(
-            std::mem::take(&mut old.tkeys),
-            std::mem::take(&mut old.tcounts),
-            &tfresh,
-            &truns,
-            |_| {},
-        );
+            })
+        };
+        let mut old_later = Some((std::mem::take(&mut old.tkeys), std::mem::take(&mut old.tcounts)));
+        let mut by_later = |tfresh: &[u64], truns: &[u32]| {
+            let (keys, counts) = old_later.take().expect("the order by later pair, merged once");
+            merge_runs(keys, counts, tfresh, truns, |_| {})
+        };
+        let ((keys, counts), (tkeys, tcounts)) = match crate::spare::borrow() {
+            // The two orders at once, on this thread and a spare core (both held twice
+            // meanwhile).
+            Some(_core) => {
+                let (tfresh, truns) = transposed(&fresh, &runs, n);
+                let mut later = None;
+                let earlier = std::thread::scope(|scope| {
+                    // The thread holds only references: one that cannot start leaves the
+                    // order by later pair to this thread, after the scope.
+                    let thread = std::thread::Builder::new()
+                        .name("mmq-merge".into())
+                        .spawn_scoped(scope, || later = Some(by_later(&tfresh, &truns)));
+                    let earlier = by_earlier(&fresh, &runs);
+                    if let Ok(t) = thread {
+                        t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                    }
+                    earlier
+                });
+                (earlier, later.unwrap_or_else(|| by_later(&tfresh, &truns)))
+            }
+            // One order after the other (at most one held twice).
+            None => {
+                let earlier = by_earlier(&fresh, &runs);
+                let (tfresh, truns) = transposed(&fresh, &runs, n);
+                drop((fresh, runs));
+                (earlier, by_later(&tfresh, &truns))
+            }
+        };
         let fptr = grown_index(&old.fptr, &add_from);
         let tptr = grown_index(&old.tptr, &add_to);
         let mut m = Merged { keys, counts, fptr, tkeys, tcounts, tptr, own: Vec::new(), own_len: Vec::new() };
@@ -272,6 +283,27 @@ fn merge_runs(
     keys.shrink_to_fit();
     counts.shrink_to_fit();
     (keys, counts)
+}
+
+/// The distinct key-ordered new keys `fresh` (with their counts `runs`) transposed to
+/// (later pair, earlier pair, lag), in their key order: a stable counting sort by later
+/// pair over `n` pairs.
+fn transposed(fresh: &[u64], runs: &[u32], n: usize) -> (Vec<u64>, Vec<u32>) {
+    let mut at = vec![0usize; n + 1];
+    for &k in fresh {
+        at[unpack(k).1 + 1] += 1;
+    }
+    for i in 0..n {
+        at[i + 1] += at[i];
+    }
+    let (mut tfresh, mut truns) = (vec![0u64; fresh.len()], vec![0u32; fresh.len()]);
+    for (&k, &c) in fresh.iter().zip(runs) {
+        let (i, i2, j) = unpack(k);
+        tfresh[at[i2]] = key(i2, i, j);
+        truns[at[i2]] = c;
+        at[i2] += 1;
+    }
+    (tfresh, truns)
 }
 
 /// The start of each pair's triples (and the end of the last) over `added.len()` pairs,
@@ -442,10 +474,19 @@ mod tests {
 
     /// Random batches merged one after another, the pairs growing: the triples in both
     /// orders and by pair equal a count of every key, batch sizes below and above the
-    /// radix sort's cut-off.
+    /// radix sort's cut-off; with both orders merged on this thread, and with the order
+    /// by later pair merged on a second.
     #[test]
     fn merged_orders_equal_a_plain_count() {
-        let mut rng = mmq_core::seed::rng_from_seed(9);
+        for beside in [false, true] {
+            crate::spare::FORCE.with(|f| f.set(Some(beside)));
+            check_merged_orders(9);
+            crate::spare::FORCE.with(|f| f.set(None));
+        }
+    }
+
+    fn check_merged_orders(seed: u64) {
+        let mut rng = mmq_core::seed::rng_from_seed(seed);
         use rand::RngExt;
         let mut c = CoCounts::default();
         let mut all: std::collections::BTreeMap<u64, u32> = std::collections::BTreeMap::new();

@@ -10,8 +10,8 @@
 //! fit costs what it reads, and every entry is the same number, bit for bit, as in the
 //! whole matrix built at once.
 
-use std::cell::OnceCell;
 use std::sync::Arc;
+use std::sync::OnceLock;
 
 use super::counts::Merged;
 
@@ -53,7 +53,7 @@ impl Row {
 pub(crate) struct Gram {
     n: usize,
     diag: Vec<f64>,
-    rows: Vec<OnceCell<Row>>,
+    rows: Vec<OnceLock<Row>>,
     /// The counts and the lag weights w_j the rows are read from (none: every row given).
     source: Option<(Arc<Merged>, Vec<f64>)>,
     /// The edge terms by row, each row's in the order of the edges: row i subtracts
@@ -104,7 +104,7 @@ impl Gram {
             edge_terms[next[row as usize]] = (col, deficit);
             next[row as usize] += 1;
         }
-        Self { n, diag, rows: vec![OnceCell::new(); n], source: Some((merged, w)), edge_at, edge_terms }
+        Self { n, diag, rows: vec![OnceLock::new(); n], source: Some((merged, w)), edge_at, edge_terms }
     }
 
     /// An `n`×`n` matrix from its entries in row-major order (its non-zero entries kept).
@@ -119,7 +119,7 @@ impl Gram {
                     r.val.push(g[i * n + j]);
                 }
                 r.max_abs = r.val.iter().fold(0.0, |m: f64, v| m.max(v.abs()));
-                OnceCell::from(r)
+                OnceLock::from(r)
             })
             .collect();
         let (edge_at, edge_terms) = (vec![0; n + 1], Vec::new());

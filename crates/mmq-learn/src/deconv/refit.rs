@@ -92,21 +92,11 @@ impl Deconvolver {
                 .expect("rounds without a stop run to the end");
             ds.iter_mut().for_each(|d| d.rounds += 1 + later);
         }
-        let joint = ds.iter().any(Deconvolver::joint_on);
-        let (g, a0) = if joint {
+        if ds.iter().any(Deconvolver::joint_on) {
             let (g, a0) = Self::cached_gram(ds, &mut grams);
-            (Some(g), a0)
-        } else {
-            (None, 0.0)
-        };
-        for (d, &sigma) in ds.iter_mut().zip(&sigmas) {
-            if let Some(g) = g
-                && d.joint_on()
-            {
-                d.fit_rewards(g, a0, sigma, true);
-            }
-            d.refits += 1;
+            Self::fit_each(ds, g, a0, &sigmas, true);
         }
+        ds.iter_mut().for_each(|d| d.refits += 1);
     }
 
     /// The first round from the previous p̂ (the warm start) and from the uniform pmf
@@ -199,7 +189,41 @@ impl Deconvolver {
     /// summed penalised objective (D2).
     fn fit_all(ds: &mut [Deconvolver], grams: &mut Vec<CachedGram>, sigmas: &[f64]) -> f64 {
         let (g, a0) = Self::cached_gram(ds, grams);
-        ds.iter_mut().zip(sigmas).map(|(d, &sigma)| d.fit_rewards(g, a0, sigma, false)).sum()
+        Self::fit_each(ds, g, a0, sigmas, false)
+    }
+
+    /// R̂ of each of `ds` given the Gram matrix `g` and a_0, with the joint test if
+    /// `joint` (then only those that run it); returns their objectives (D2) summed in
+    /// order. With two or more and a spare core, the first is fitted there beside the
+    /// others: each fit reads `g` and writes only its own deconvolver, so the fits are
+    /// the same on any number of threads.
+    fn fit_each(ds: &mut [Deconvolver], g: &gram::Gram, a0: f64, sigmas: &[f64], joint: bool) -> f64 {
+        let fit = |d: &mut Deconvolver, sigma: f64| {
+            (!joint || d.joint_on()).then(|| d.fit_rewards(g, a0, sigma, joint))
+        };
+        let mut objectives: Vec<Option<f64>> = Vec::with_capacity(ds.len());
+        let core = if ds.len() >= 2 { spare::borrow() } else { None };
+        if let Some(_core) = core {
+            let mut first = None;
+            let (head, rest) = ds.split_at_mut(1);
+            std::thread::scope(|scope| {
+                // The thread holds only references: one that cannot start leaves the
+                // first fit to this thread, after the scope.
+                let thread = std::thread::Builder::new()
+                    .name("mmq-refit".into())
+                    .spawn_scoped(scope, || first = Some(fit(&mut head[0], sigmas[0])));
+                let others: Vec<_> =
+                    rest.iter_mut().zip(&sigmas[1..]).map(|(d, &sigma)| fit(d, sigma)).collect();
+                if let Ok(t) = thread {
+                    t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                }
+                objectives.extend(others);
+            });
+            objectives.insert(0, first.unwrap_or_else(|| fit(&mut ds[0], sigmas[0])));
+        } else {
+            objectives.extend(ds.iter_mut().zip(sigmas).map(|(d, &sigma)| fit(d, sigma)));
+        }
+        objectives.into_iter().flatten().sum()
     }
 
     /// One round of the alternation from the current p̂ and R̂: R̂ given p̂, p̂ given R̂
