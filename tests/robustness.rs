@@ -432,10 +432,11 @@ mod determinism {
         log.topics.iter().map(|(k, t)| (k.clone(), t.count, t.digest)).collect()
     }
 
-    /// Same seeds on 1 and 2 worker threads: bit-identical summaries (wall time aside),
-    /// learning curves, Q-tables and MCAP message contents. Three seeds, so that on two
-    /// threads the seeds finish out of order.
-    fn same_on_one_and_two_threads(env: &str, steps: &str) {
+    /// Same seeds of `learner` on 1 and 2 worker threads: bit-identical summaries (wall
+    /// time aside), learning curves, Q-tables and MCAP message contents. Three seeds, so
+    /// that on two threads the seeds finish out of order; one, so that the learner has a
+    /// core to spare.
+    fn same_on_one_and_two_threads(env: &str, learner: &str, steps: &str, seeds: u64) {
         let _g = heavy();
         let mut runs = Vec::new();
         for threads in ["1", "2"] {
@@ -449,10 +450,12 @@ mod determinism {
                 "worlds/paper-5x5.toml",
                 "--env",
                 env,
+                "--learner",
+                learner,
                 "--steps",
                 steps,
                 "--seeds",
-                "3",
+                &seeds.to_string(),
                 "--seed",
                 "11",
                 "--window",
@@ -467,11 +470,12 @@ mod determinism {
         }
         let (a, b) = (runs[0].path(), runs[1].path());
         assert_eq!(summary_sans_time(a), summary_sans_time(b), "{env}: summaries differ");
-        for f in ["metrics.csv", "policy.csv", "q_seed11.npy", "q_seed12.npy", "q_seed13.npy"] {
-            let (x, y) = (std::fs::read(a.join(f)).unwrap(), std::fs::read(b.join(f)).unwrap());
+        let tables = (11..11 + seeds).map(|s| format!("q_seed{s}.npy"));
+        for f in ["metrics.csv".to_string(), "policy.csv".to_string()].into_iter().chain(tables) {
+            let (x, y) = (std::fs::read(a.join(&f)).unwrap(), std::fs::read(b.join(&f)).unwrap());
             assert!(x == y, "{env}: {f} differs between 1 and 2 threads");
         }
-        for seed in 11..14 {
+        for seed in 11..11 + seeds {
             let name = format!("trajectory-seed{seed}.mcap");
             let la = mmq_log::read_log(a.join(&name)).unwrap();
             let lb = mmq_log::read_log(b.join(&name)).unwrap();
@@ -486,12 +490,19 @@ mod determinism {
 
     #[test]
     fn grid_is_bit_identical_on_one_and_two_threads() {
-        same_on_one_and_two_threads("grid", "3000");
+        same_on_one_and_two_threads("grid", "mmq", "3000", 3);
     }
 
     #[test]
     fn robot_is_bit_identical_on_one_and_two_threads() {
-        same_on_one_and_two_threads("robot", "150");
+        same_on_one_and_two_threads("robot", "mmq", "150", 3);
+    }
+
+    /// One seed of `deconv-model` on two threads runs its refits' cold starts on the
+    /// spare core.
+    #[test]
+    fn deconv_model_is_bit_identical_with_a_spare_core() {
+        same_on_one_and_two_threads("grid", "deconv-model", "6000", 1);
     }
 }
 
