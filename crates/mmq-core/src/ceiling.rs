@@ -4,7 +4,7 @@
 //!
 //! Undelayed learning cannot beat it, and no learner exploring with ε can either, so it
 //! is the honest "100 %" for performance *while learning*; the exact optimum
-//! ([`crate::optimum`]) is the ceiling of the greedy policy.
+//! ([`crate::optimum()`]) is the ceiling of the greedy policy.
 //!
 //! An ε-soft policy π picks its action a = π(s) with probability 1 − ε + ε/|A| and every
 //! other action with probability ε/|A|. Its expected one-step reward and successor law are

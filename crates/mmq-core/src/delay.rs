@@ -77,7 +77,7 @@ pub enum DelayDist {
     Geometric(f64),
     /// Uniform on lo..=hi.
     Uniform(u32, u32),
-    /// P(d = k) ∝ weights[k].
+    /// P(d = k) ∝ `weights[k]`.
     Empirical(Vec<f64>),
     /// Mixture: (weight, component).
     Mixture(Vec<(f64, DelayDist)>),

@@ -256,7 +256,7 @@ pub(crate) fn run_seed_as(
     }
 }
 
-/// [`run_seed_as`] on environments made by `make`.
+/// `run_seed_as` on environments made by `make`.
 pub fn run_seed_on<E: Env + Telemetry>(
     cfg: &RunConfig,
     world: &World,

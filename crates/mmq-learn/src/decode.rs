@@ -48,7 +48,7 @@ fn key(v: f64) -> i64 {
     (v / QUANTUM).round() as i64
 }
 
-/// The counts n_v ≥ 0, Σ n_v ≤ [`MAX_PARTS`], with Σ n_v values[v] = r (to 1e-9 in
+/// The counts n_v ≥ 0, Σ n_v ≤ [`MAX_PARTS`], with Σ n_v `values[v]` = r (to 1e-9 in
 /// relative terms) and the fewest parts (the first found of equally few); None when no
 /// counts add up to r.
 pub fn decode(values: &[f64], r: f64) -> Option<Vec<u32>> {

@@ -394,7 +394,7 @@ impl DeconvModel {
     }
 
     /// One Gauss–Seidel sweep of (M1) over every state, in state order. States none of
-    /// whose inputs changed since their last computation are skipped ([`Dirty`]): they
+    /// whose inputs changed since their last computation are skipped (`Dirty`): they
     /// would get the same values, so the sweep's result is that of the full sweep.
     pub fn plan(&mut self) {
         let (a_n, gamma, q0, m) = (self.q.num_actions(), self.p.gamma, self.p.q0, self.optimism_visits);

@@ -14,9 +14,9 @@
 //!
 //! - The target's max over all models and actions of s' is the same for every model, so
 //!   it is cached per state: the max, how many entries attain it, and which one when it
-//!   is unique ([`Top`]).
+//!   is unique (`Top`).
 //! - The same is kept per column (s, a): the max over the N models of Q(s, a, ·). The
-//!   table is stored column by column, [s][a][λ̂], so a column is one contiguous run.
+//!   table is stored column by column, `[s][a][λ̂]`, so a column is one contiguous run.
 //!   An update changes one entry; unless that entry was or becomes its column's
 //!   maximiser (about one update in twenty on the paper's grid) one compare is all the
 //!   bookkeeping. Otherwise the column's cache follows the change, and is rebuilt by a
@@ -24,14 +24,14 @@
 //!   then combined from its |A| column caches.
 //! - Acting reads the state's cache: no scan unless the maximum is tied, and then the
 //!   same draw and the same choice as [`crate::policy::argmax_random_tie`] over the
-//!   block in the reference's [λ̂][a] order ([`pick_tie_in`]).
+//!   block in the reference's `[λ̂][a]` order ([`pick_tie_in`]).
 //! - The last N steps are kept twice in a ring of 2N, so the N updates of one step walk
 //!   one slice without a modulo per model, each step with its column's offset already
 //!   computed. (1 − α) is computed once; eq. (7) is otherwise evaluated with exactly the
 //!   reference's operations in the reference's order.
 //!
 //! Tables are exported ([`Learner::tables`], [`MultipleModelQ::raw`]) in the
-//! reference's [s][λ̂][a] order.
+//! reference's `[s][λ̂][a]` order.
 
 use mmq_core::{Action, Rng, State};
 
@@ -97,7 +97,7 @@ pub struct MultipleModelQ {
     cols: Vec<Top>,
     /// Cache of the block of s, max_{λ̂, a} Q(s, a, λ̂), combined from its columns.
     top: Vec<Top>,
-    /// `cols[c].max` at [c] and `top[s].max` at [S × |A| + s] again, densely, for the
+    /// `cols[c].max` at `[c]` and `top[s].max` at `[S × |A| + s]` again, densely, for the
     /// update loop.
     maxes: Vec<f64>,
     /// The last N steps at t mod N and again at t mod N + N.
@@ -264,7 +264,7 @@ impl MultipleModelQ {
         (0..n).flat_map(move |l| block[l..].iter().step_by(n).copied())
     }
 
-    /// The whole table in the reference's order, [s][λ̂][a] (a copy).
+    /// The whole table in the reference's order, `[s][λ̂][a]` (a copy).
     pub fn raw(&self) -> Vec<f64> {
         let states = self.top.len();
         (0..states).flat_map(|s| self.block_values(s)).collect()

@@ -50,7 +50,7 @@ impl MmqReference {
         self.q[(s * self.n + model) * self.num_actions + a]
     }
 
-    /// The whole table, [s][λ̂][a].
+    /// The whole table, `[s][λ̂][a]`.
     pub fn raw(&self) -> &[f64] {
         &self.q
     }
@@ -93,7 +93,7 @@ impl Learner for MmqReference {
     }
 }
 
-/// Eqs. (5)–(6) on a state's block Q(s, ·, ·) in [λ̂][a] order: ε-greedy on the joint
+/// Eqs. (5)–(6) on a state's block Q(s, ·, ·) in `[λ̂][a]` order: ε-greedy on the joint
 /// argmax over models and actions, ties at random; the model acted on when greedy.
 pub(crate) fn act_on_block(block: &[f64], a_n: usize, epsilon: f64, rng: &mut Rng) -> Decision {
     let mut model = None;

@@ -327,7 +327,7 @@ impl DeconvSettings {
         Ok(())
     }
 
-    /// The deconvolver configuration (after [`Self::validate`]).
+    /// The deconvolver configuration (after `validate`).
     pub fn config(&self) -> Result<DeconvConfig, LearnError> {
         let told = match &self.told_delay {
             Some(d) => Some(truncated_pmf(

@@ -1,4 +1,4 @@
-//! [`McapRecorder`]: an [`Observer`] that writes a run to an MCAP file.
+//! [`McapRecorder`]: an [`Observer`](mmq_core::Observer) that writes a run to an MCAP file.
 //!
 //! Time base: every message's `log_time` (and `publish_time`) is simulated time in
 //! nanoseconds since the start of the run, never reset. Grid runs have no continuous

@@ -1,5 +1,5 @@
 //! mmq-py: the native module `mmq._mmq` behind the Python package `mmq` — environments
-//! behind the delay channel ([`env`]), vector environments batched in Rust ([`vector`]),
+//! behind the delay channel ([`env`](mod@env)), vector environments batched in Rust ([`vector`]),
 //! learners and the lab's runner ([`learn`]), and the MCAP reader ([`read`]).
 //!
 //! The Python package (`python/mmq/`) wraps these in Gymnasium classes; everything that

@@ -46,7 +46,7 @@ pub enum SecondsDist {
         /// Standard deviation of ln d.
         sigma: f64,
     },
-    /// A histogram: P(k·bin ≤ d < (k+1)·bin) ∝ weights[k], uniform within a bin.
+    /// A histogram: P(k·bin ≤ d < (k+1)·bin) ∝ `weights[k]`, uniform within a bin.
     Histogram {
         /// Bin width, seconds.
         bin_s: f64,

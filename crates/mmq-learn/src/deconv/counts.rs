@@ -44,14 +44,14 @@ pub(crate) fn unpack(k: u64) -> (usize, usize, usize) {
 pub(crate) struct Merged {
     keys: Vec<u64>,
     counts: Vec<u32>,
-    /// The triples with earlier pair i are at fptr[i]..fptr[i + 1].
+    /// The triples with earlier pair i are at `fptr[i]..fptr[i + 1]`.
     fptr: Vec<usize>,
     /// key(i2, i, j) of every triple (i, i2, j), in order, and its count.
     tkeys: Vec<u64>,
     tcounts: Vec<u32>,
-    /// The triples with later pair i2 are at tkeys[tptr[i2]..tptr[i2 + 1]].
+    /// The triples with later pair i2 are at `tkeys[tptr[i2]..tptr[i2 + 1]]`.
     tptr: Vec<usize>,
-    /// The triples (i, i, ·) are the `own_len[i]` from keys[own[i]].
+    /// The triples (i, i, ·) are the `own_len[i]` from `keys[own[i]]`.
     own: Vec<usize>,
     own_len: Vec<u32>,
 }

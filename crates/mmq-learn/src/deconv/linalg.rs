@@ -78,8 +78,8 @@ pub(crate) fn update_inverse(
 
 /// The joint test of the deconvolution's reward fit: of the pairs `active` (their
 /// joint inverse `inv` from [`joint_inverse`]) whose estimate `rp[i]` lies less than
-/// `thr` joint standard errors from zero, |rp[i]| < thr √inv_ii (`thr` includes σ̂),
-/// the position in `active` of the one furthest below (the smallest |rp[i]| / √inv_ii).
+/// `thr` joint standard errors from zero, |`rp[i]`| < thr √inv_ii (`thr` includes σ̂),
+/// the position in `active` of the one furthest below (the smallest |`rp[i]`| / √inv_ii).
 /// None when every pair passes or fewer than two are active.
 pub(crate) fn joint_failure(inv: &DMatrix<f64>, active: &[usize], rp: &[f64], thr: f64) -> Option<usize> {
     if active.len() < 2 {

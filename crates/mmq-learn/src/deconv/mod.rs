@@ -34,7 +34,7 @@
 //! Σ_t y_{t−k} y_{t−k'} = Rᵀ C_{|k−k'|} R,   Σ_t r_t y_{t−k} = Σ_x R(x) B_k(x)        (y_u = R(x_u))
 //! ```
 //!
-//! up to edge terms of the last K steps. The counts are sparse ([`counts`]): only the
+//! up to edge terms of the last K steps. The counts are sparse (`counts.rs`): only the
 //! (pair, pair, lag) triples that occurred are kept, at most K + 1 new ones per step, so
 //! memory grows with the steps taken (and far slower once the agent repeats itself), not
 //! with the square of the pairs; G has an entry only for pairs that came within K steps
@@ -150,7 +150,7 @@ pub struct Deconvolver {
     /// Sign every reward feature must have (+1, −1; 0: free): a deconvolver of one reward
     /// value's deliveries ([`crate::decode`]) only fits rewards of that value's sign.
     sign: f64,
-    /// Standard errors of p̂'s median from the last reweighted fit ([`median_se`]).
+    /// Standard errors of p̂'s median from the last reweighted fit (`median_se`).
     median_se: Option<MedianSe>,
 }
 
@@ -224,7 +224,7 @@ impl Deconvolver {
         &self.pmf
     }
 
-    /// Standard errors of p̂'s median from the last reweighted fit ([`median_se`]);
+    /// Standard errors of p̂'s median from the last reweighted fit (`median_se`);
     /// `None` before the first, when told the pmf, or unweighted.
     pub fn median_se(&self) -> Option<MedianSe> {
         self.median_se

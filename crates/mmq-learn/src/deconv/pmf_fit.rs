@@ -86,7 +86,7 @@ pub(crate) fn median_se(a: &[f64], nu: f64, p: &[f64]) -> Option<MedianSe> {
     cdf.is_finite().then(|| MedianSe { cdf, steps: if f > 0.0 { cdf / f } else { f64::INFINITY } })
 }
 
-/// Standard errors of the median m̂ of a delay estimate ([`median_se`]).
+/// Standard errors of the median m̂ of a delay estimate (`median_se`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MedianSe {
     /// Of the cumulative probability F(m̂).

@@ -1,7 +1,7 @@
 //! [`render`]: a picture of the arena (walls, blocked cells, G, S) with the trajectory read
 //! from `/robot/pose`, a scale bar in metres and a legend, as SVG and PNG.
 //!
-//! The picture is built once as a list of shapes ([`scene`]); `svg.rs` writes it as SVG
+//! The picture is built once as a list of shapes (`scene.rs`); `svg.rs` writes it as SVG
 //! text and `raster.rs` draws it into pixels (anti-aliased) for the PNG, so both files show
 //! the same thing. No plotting library: the PNG is drawn here and encoded with `png`, its
 //! text with the DejaVu Sans font that `mmq-plot` also embeds (`ab_glyph` outlines).
