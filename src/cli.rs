@@ -11,7 +11,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 #[command(name = "mmq", version, about, propagate_version = true)]
 pub struct Cli {
     /// Worker threads for `run`, `paper` and `sweep` (default: all cores; at most 256),
-    /// given before the command: `mmq --threads 2 sweep ...`. Results do not depend on it.
+    /// given before the command: `mmq --threads 2 sweep ...`. A thread without a seed of
+    /// its own helps a deconvolving learner's refits. Results do not depend on it.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     #[command(subcommand)]
