@@ -535,7 +535,7 @@ mod tests {
         assert_eq!(m.reward_values.len(), 2);
     }
 
-    /// The two values' fits are the same when the first is fitted on a second thread
+    /// The two values' fits are the same when one is fitted on a second thread
     /// (and the cold starts run on a third) as on one thread, bit for bit.
     #[test]
     fn two_values_fit_the_same_on_any_thread() {

@@ -101,6 +101,34 @@ pub(crate) fn borrow() -> Option<Core> {
     LENDER.lend().then(|| Core { counted: true })
 }
 
+/// Runs `here` on this thread and `there` beside it on a borrowed core when one is free;
+/// otherwise (or when the thread cannot start) `there` runs on this thread after `here`.
+/// Returns both results; a panic in `there` is raised again here.
+pub(crate) fn beside<A, B: Send>(here: impl FnOnce() -> A, there: impl FnOnce() -> B + Send) -> (A, B) {
+    let Some(_core) = borrow() else {
+        let a = here();
+        return (a, there());
+    };
+    // The thread only borrows `there` and its result's slot: one that cannot start
+    // leaves both where they were, for this thread.
+    let (mut there, mut out) = (Some(there), None);
+    let a = std::thread::scope(|scope| {
+        let (job, slot) = (&mut there, &mut out);
+        let thread = std::thread::Builder::new().name("mmq-spare".into()).spawn_scoped(scope, move || {
+            if let Some(f) = job.take() {
+                *slot = Some(f());
+            }
+        });
+        let a = here();
+        if let Ok(t) = thread {
+            t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        }
+        a
+    });
+    let b = out.unwrap_or_else(|| there.take().expect("run on neither thread")());
+    (a, b)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -120,6 +148,18 @@ mod tests {
         assert!(!l.lend(), "two jobs on two threads leave none free");
         l.give_back();
         assert!(l.lend(), "a job ended: its core is free");
+    }
+
+    /// `beside` returns both results in their places, with a core and without.
+    #[test]
+    fn beside_returns_both_results() {
+        for force in [false, true] {
+            FORCE.with(|f| f.set(Some(force)));
+            let (mut x, mut y) = (0, 0);
+            let (a, b) = beside(|| (x = 1, 2).1, || (y = 3, 4).1);
+            FORCE.with(|f| f.set(None));
+            assert_eq!((a, b, x, y), (2, 4, 1, 3));
+        }
     }
 
     /// A loan refused (no runner in this test binary) leaves the process's count as it

@@ -165,46 +165,20 @@ impl CoCounts {
         // Triples not seen before, by earlier and by later pair.
         let (mut add_from, mut add_to) = (vec![0usize; n], vec![0usize; n]);
         let (old_keys, old_counts) = (std::mem::take(&mut old.keys), std::mem::take(&mut old.counts));
-        let by_earlier = |fresh: &[u64], runs: &[u32]| {
-            merge_runs(old_keys, old_counts, fresh, runs, |k| {
-                let (i, i2, _) = unpack(k);
-                add_from[i] += 1;
-                add_to[i2] += 1;
-            })
-        };
-        let mut old_later = Some((std::mem::take(&mut old.tkeys), std::mem::take(&mut old.tcounts)));
-        let mut by_later = |tfresh: &[u64], truns: &[u32]| {
-            let (keys, counts) = old_later.take().expect("the order by later pair, merged once");
-            merge_runs(keys, counts, tfresh, truns, |_| {})
-        };
-        let ((keys, counts), (tkeys, tcounts)) = match crate::spare::borrow() {
-            // The two orders at once, on this thread and a spare core (both held twice
-            // meanwhile).
-            Some(_core) => {
-                let (tfresh, truns) = transposed(&fresh, &runs, n);
-                let mut later = None;
-                let earlier = std::thread::scope(|scope| {
-                    // The thread holds only references: one that cannot start leaves the
-                    // order by later pair to this thread, after the scope.
-                    let thread = std::thread::Builder::new()
-                        .name("mmq-merge".into())
-                        .spawn_scoped(scope, || later = Some(by_later(&tfresh, &truns)));
-                    let earlier = by_earlier(&fresh, &runs);
-                    if let Ok(t) = thread {
-                        t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-                    }
-                    earlier
-                });
-                (earlier, later.unwrap_or_else(|| by_later(&tfresh, &truns)))
-            }
-            // One order after the other (at most one held twice).
-            None => {
-                let earlier = by_earlier(&fresh, &runs);
-                let (tfresh, truns) = transposed(&fresh, &runs, n);
-                drop((fresh, runs));
-                (earlier, by_later(&tfresh, &truns))
-            }
-        };
+        let (old_tkeys, old_tcounts) = (std::mem::take(&mut old.tkeys), std::mem::take(&mut old.tcounts));
+        let (tfresh, truns) = transposed(&fresh, &runs, n);
+        // The two orders at once when a core is spare (both then held twice meanwhile),
+        // else one after the other (at most one held twice).
+        let ((keys, counts), (tkeys, tcounts)) = crate::spare::beside(
+            || {
+                merge_runs(old_keys, old_counts, &fresh, &runs, |k| {
+                    let (i, i2, _) = unpack(k);
+                    add_from[i] += 1;
+                    add_to[i2] += 1;
+                })
+            },
+            || merge_runs(old_tkeys, old_tcounts, &tfresh, &truns, |_| {}),
+        );
         let fptr = grown_index(&old.fptr, &add_from);
         let tptr = grown_index(&old.tptr, &add_to);
         let mut m = Merged { keys, counts, fptr, tkeys, tcounts, tptr, own: Vec::new(), own_len: Vec::new() };

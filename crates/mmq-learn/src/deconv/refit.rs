@@ -85,7 +85,7 @@ impl Deconvolver {
                 Self::first_round(ds, &mut grams, &sigmas, passes);
                 (previous, None)
             } else {
-                Self::warm_or_cold(ds, &mut grams, &sigmas, previous)
+                Self::warm_or_cold(ds, &mut grams, &sigmas, previous, passes)
             };
             let later = done
                 .or_else(|| Self::later_rounds(ds, &mut grams, &sigmas, start, None))
@@ -100,9 +100,9 @@ impl Deconvolver {
     }
 
     /// The first round from the previous p̂ (the warm start) and from the uniform pmf
-    /// with R̂ zero (the cold start); keeps the one with the lower objective (D2) and
-    /// returns the pmf its later rounds start from, with the number of later rounds when
-    /// they have run already.
+    /// with R̂ zero (the cold start), their pmf fits with `passes` reweighted passes;
+    /// keeps the one with the lower objective (D2) and returns the pmf its later rounds
+    /// start from, with the number of later rounds when they have run already.
     ///
     /// The cold start runs on copies that share the statistics and the history (both only
     /// read during a refit), on another thread when one is free. Meanwhile each start goes
@@ -116,9 +116,8 @@ impl Deconvolver {
         grams: &mut Vec<CachedGram>,
         sigmas: &[f64],
         previous: Vec<f64>,
+        passes: usize,
     ) -> (Vec<f64>, Option<u64>) {
-        let passes =
-            weighted_passes(ds[0].cfg.settings.pmf_weighted_rounds, ds[0].cfg.settings.pmf_rounds, 1);
         let uniform = uniform_pmf(ds[0].pmf.len());
         let mut cold: Vec<Deconvolver> = ds
             .iter()
@@ -155,21 +154,8 @@ impl Deconvolver {
             });
             (objective, fitted, ahead.flatten())
         };
-        let (warm, beside) = match spare::borrow() {
-            Some(_core) => std::thread::scope(|scope| {
-                let thread = std::thread::Builder::new()
-                    .name("mmq-refit".into())
-                    .spawn_scoped(scope, || cold_start(&mut cold, &mut cold_grams));
-                let warm = warm_start(ds, grams);
-                // A thread that could not start leaves the cold start to this one.
-                let cold =
-                    thread.ok().map(|t| t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)));
-                (warm, cold)
-            }),
-            None => (warm_start(ds, grams), None),
-        };
         let ((warm_objective, warm_se, warm_ahead), (cold_objective, cold_fitted, cold_ahead)) =
-            (warm, beside.unwrap_or_else(|| cold_start(&mut cold, &mut cold_grams)));
+            spare::beside(|| warm_start(ds, grams), || cold_start(&mut cold, &mut cold_grams));
         grams.append(&mut cold_grams);
         let won = cold_objective < warm_objective;
         ds.iter_mut().for_each(|d| d.cold_start_ended(won));
@@ -194,35 +180,25 @@ impl Deconvolver {
 
     /// R̂ of each of `ds` given the Gram matrix `g` and a_0, with the joint test if
     /// `joint` (then only those that run it); returns their objectives (D2) summed in
-    /// order. With two or more and a spare core, the first is fitted there beside the
-    /// others: each fit reads `g` and writes only its own deconvolver, so the fits are
-    /// the same on any number of threads.
+    /// order. With two or more and a spare core, the others are fitted there beside the
+    /// first ([`spare::beside`]): each fit reads `g` and writes only its own deconvolver,
+    /// so the fits are the same on any number of threads.
     fn fit_each(ds: &mut [Deconvolver], g: &gram::Gram, a0: f64, sigmas: &[f64], joint: bool) -> f64 {
         let fit = |d: &mut Deconvolver, sigma: f64| {
             (!joint || d.joint_on()).then(|| d.fit_rewards(g, a0, sigma, joint))
         };
-        let mut objectives: Vec<Option<f64>> = Vec::with_capacity(ds.len());
-        let core = if ds.len() >= 2 { spare::borrow() } else { None };
-        if let Some(_core) = core {
-            let mut first = None;
+        let fit_all = |ds: &mut [Deconvolver], sigmas: &[f64]| -> Vec<Option<f64>> {
+            ds.iter_mut().zip(sigmas).map(|(d, &sigma)| fit(d, sigma)).collect()
+        };
+        let objectives = if ds.len() >= 2 {
             let (head, rest) = ds.split_at_mut(1);
-            std::thread::scope(|scope| {
-                // The thread holds only references: one that cannot start leaves the
-                // first fit to this thread, after the scope.
-                let thread = std::thread::Builder::new()
-                    .name("mmq-refit".into())
-                    .spawn_scoped(scope, || first = Some(fit(&mut head[0], sigmas[0])));
-                let others: Vec<_> =
-                    rest.iter_mut().zip(&sigmas[1..]).map(|(d, &sigma)| fit(d, sigma)).collect();
-                if let Ok(t) = thread {
-                    t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-                }
-                objectives.extend(others);
-            });
-            objectives.insert(0, first.unwrap_or_else(|| fit(&mut ds[0], sigmas[0])));
+            let (first, mut others) =
+                spare::beside(|| fit(&mut head[0], sigmas[0]), || fit_all(rest, &sigmas[1..]));
+            others.insert(0, first);
+            others
         } else {
-            objectives.extend(ds.iter_mut().zip(sigmas).map(|(d, &sigma)| fit(d, sigma)));
-        }
+            fit_all(ds, sigmas)
+        };
         objectives.into_iter().flatten().sum()
     }
 
