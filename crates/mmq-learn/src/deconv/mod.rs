@@ -526,6 +526,10 @@ pub(crate) mod tests {
         d.observe_transition(2, 0, 0.0); // (0, 2) → 0
         d.observe_transition(3, 1, 0.0); // (1, 0) → 1: other state, same successor
         assert_eq!(grouped(&d), vec![vec![0, 1], vec![2], vec![3]]);
+        // In the order of their first members, each named by it (the fit's features are
+        // laid out in this order).
+        assert_eq!(d.stats.pairs, vec![0, 1, 2, 3]);
+        assert_eq!(d.groups(), vec![(0, vec![0, 1]), (2, vec![2]), (3, vec![3])]);
         d.observe_transition(1, 1, 0.0); // again the same: still grouped
         assert_eq!(grouped(&d), vec![vec![0, 1], vec![2], vec![3]]);
         d.observe_transition(0, 2, 0.0); // (0, 0) also led to 2: on its own now

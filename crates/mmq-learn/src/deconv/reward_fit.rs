@@ -262,21 +262,30 @@ impl Deconvolver {
     pub(crate) fn groups(&self) -> Groups {
         let a_n = self.num_actions;
         let mut groups: Groups = Vec::new();
-        let mut slot = std::collections::HashMap::new();
+        // The groups of each state so far, as (key, group index): a state's pairs make at
+        // most `a_n` groups, found by a short scan rather than a hash.
+        let mut slots = vec![(0u64, 0usize); self.succ.len()];
+        let mut used = vec![0usize; self.succ.len().div_ceil(a_n)];
         for (i, &x) in self.stats.pairs.iter().enumerate() {
             let st = x as usize / a_n;
             let succ = self.succ[x as usize];
             let key = if !self.cfg.settings.successor_groups || self.cfg.settings.state_rewards {
-                (st, 0)
+                0
             } else if succ == UNSEEN || succ == MIXED {
-                (st, u64::from(u32::MAX) + 1 + i as u64)
+                u64::from(u32::MAX) + 1 + i as u64
             } else {
-                (st, u64::from(succ))
+                u64::from(succ)
             };
-            let g_i = *slot.entry(key).or_insert_with(|| {
-                groups.push((x as usize, Vec::new()));
-                groups.len() - 1
-            });
+            let own = &slots[st * a_n..st * a_n + used[st]];
+            let g_i = match own.iter().find(|&&(k, _)| k == key) {
+                Some(&(_, g_i)) => g_i,
+                None => {
+                    groups.push((x as usize, Vec::new()));
+                    slots[st * a_n + used[st]] = (key, groups.len() - 1);
+                    used[st] += 1;
+                    groups.len() - 1
+                }
+            };
             groups[g_i].1.push(i);
         }
         groups
