@@ -3,7 +3,7 @@
 //! A run of `mmq` learns on one thread per seed. When fewer seeds run than the process
 //! has threads (one seed of `mmq run`, the last seeds of a sweep), the other cores idle;
 //! a learner can put one of them to work (the deconvolving learners run a refit's cold
-//! start beside its warm one). The runner says how many threads it runs learners on
+//! start beside its warm one, and sort their new statistics between refits). The runner says how many threads it runs learners on
 //! ([`set_threads`]) and counts the learners running ([`Job`]); a learner takes a core
 //! only while one is free (`borrow`), so that seeds in parallel never run more
 //! threads than there are. Without a runner (a learner used as a library, or stepped one
@@ -14,6 +14,8 @@
 //! learner would otherwise make on its own thread, bit for bit.
 
 use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock, PoisonError};
+use std::thread::JoinHandle;
 
 /// Threads to run learners on, and learners running plus cores lent.
 #[derive(Debug)]
@@ -129,6 +131,76 @@ pub(crate) fn beside<A, B: Send>(here: impl FnOnce() -> A, there: impl FnOnce() 
     (a, b)
 }
 
+/// Work started on a lent core ([`lend`]), whose result [`Later::wait`] waits for.
+/// Clones share the work and its result.
+#[derive(Debug)]
+pub(crate) struct Later<T> {
+    inner: Arc<LaterInner<T>>,
+}
+
+#[derive(Debug)]
+struct LaterInner<T> {
+    result: OnceLock<T>,
+    /// The thread, until a wait joins it.
+    thread: Mutex<Option<JoinHandle<()>>>,
+}
+
+impl<T> Clone for Later<T> {
+    fn clone(&self) -> Self {
+        Self { inner: Arc::clone(&self.inner) }
+    }
+}
+
+impl<T> Later<T> {
+    /// The result, once the work has ended; a panic in it is raised again here.
+    pub(crate) fn wait(&self) -> &T {
+        // The lock is held while the thread is joined, so that a clone waiting at the
+        // same time finds the result set.
+        let mut thread = lock(&self.inner.thread);
+        if let Some(t) = thread.take() {
+            t.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        }
+        drop(thread);
+        self.inner.result.get().expect("work that ended without a panic left its result")
+    }
+}
+
+/// Starts `f(data)` on a borrowed core, which it holds until `f` returns, when one is
+/// free and its thread starts; otherwise gives `data` back.
+pub(crate) fn lend<D, T>(data: D, f: fn(D) -> T) -> Result<Later<T>, D>
+where
+    D: Send + 'static,
+    T: Send + Sync + 'static,
+{
+    let Some(core) = borrow() else { return Err(data) };
+    let inner = Arc::new(LaterInner { result: OnceLock::new(), thread: Mutex::new(None) });
+    // The data stays reachable from here until the thread takes it, so that a thread
+    // that cannot start leaves it to be given back.
+    let job = Arc::new(Mutex::new(Some(data)));
+    let (slot, work) = (Arc::clone(&inner), Arc::clone(&job));
+    let thread = std::thread::Builder::new().name("mmq-spare".into()).spawn(move || {
+        let _core = core;
+        let data = lock(&work).take();
+        if let Some(data) = data {
+            // The only place that sets it.
+            let _ = slot.result.set(f(data));
+        }
+    });
+    match thread {
+        Ok(t) => {
+            *lock(&inner.thread) = Some(t);
+            Ok(Later { inner })
+        }
+        Err(_) => Err(lock(&job).take().expect("a thread that did not start took nothing")),
+    }
+}
+
+/// The value of a mutex, also after a panic elsewhere while it was held (the values here
+/// are only set whole).
+fn lock<M>(m: &Mutex<M>) -> MutexGuard<'_, M> {
+    m.lock().unwrap_or_else(PoisonError::into_inner)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -160,6 +232,31 @@ mod tests {
             FORCE.with(|f| f.set(None));
             assert_eq!((a, b, x, y), (2, 4, 1, 3));
         }
+    }
+
+    /// `lend` runs the work on a lent core and `wait` returns its result, to every clone;
+    /// with no core free it gives the data back untouched; a panic in the work is raised
+    /// in `wait`.
+    #[test]
+    fn lent_work_returns_its_result_or_its_data() {
+        FORCE.with(|f| f.set(Some(true)));
+        let later = lend(vec![3u64, 1, 2], |mut v| {
+            v.sort_unstable();
+            v
+        })
+        .expect("a core is forced free");
+        let other = later.clone();
+        assert_eq!(later.wait(), &vec![1, 2, 3]);
+        assert_eq!(other.wait(), &vec![1, 2, 3]);
+        let failing = lend((), |()| -> u32 { panic!("work failed") }).expect("forced");
+        let raised = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| *failing.wait()));
+        assert!(raised.is_err());
+        FORCE.with(|f| f.set(Some(false)));
+        match lend(vec![7u64], |v| v.len()) {
+            Ok(_) => panic!("no core is free"),
+            Err(v) => assert_eq!(v, vec![7]),
+        }
+        FORCE.with(|f| f.set(None));
     }
 
     /// A loan refused (no runner in this test binary) leaves the process's count as it

@@ -1,13 +1,16 @@
 //! Sparse lag co-occurrence counts C_j(i, i') = #{t : x_{t−j} = i, x_t = i'}: only the
 //! (pair, pair, lag) triples that occurred are stored, as a sorted list of packed keys
 //! and their counts. A step adds K + 1 keys to a pending buffer; before the counts are
-//! read the buffer is sorted (by radix), run-length encoded and merged into the list.
+//! read the buffer is sorted (by radix), run-length encoded and merged into the list
+//! (full chunks of it are sorted as they come on a spare core, when there is one).
 //! The list is kept twice, ordered by earlier pair and by later pair, so that one row of
 //! the Gram matrix reads its triples from two contiguous ranges. Memory is 24 bytes per
 //! distinct triple (at most (K + 1) per step, far fewer once the agent repeats itself)
 //! and 28 per pair, independent of the number of pairs the world has.
 
 use std::sync::Arc;
+
+use crate::spare::Later;
 
 /// Bits of a packed key for the later pair and for the lag (the earlier pair takes the
 /// rest): i · 2^(PAIR_BITS + LAG_BITS) + i' · 2^LAG_BITS + j.
@@ -17,8 +20,16 @@ const PAIR_BITS: u32 = 23;
 /// At most this many compact pairs.
 pub(crate) const MAX_PAIRS: usize = 1 << PAIR_BITS;
 
-/// At most this many pending keys before they are merged (bounds the buffer's memory).
+/// At most this many keys added since the last merge (pending, or handed to a lent core
+/// to sort) before they are merged (bounds their memory).
 const PENDING_MAX: usize = 1 << 22;
+
+/// Pending keys are handed to a lent core to sort in chunks of this many, when one is
+/// free (a power of two that divides `PENDING_MAX`).
+const CHUNK: usize = if cfg!(test) { 1 << 10 } else { 1 << 16 };
+
+/// Distinct keys in ascending order and how often each came.
+type Runs = (Vec<u64>, Vec<u32>);
 
 /// The packed key of (earlier pair `i`, later pair `i2`, lag `j`).
 #[inline]
@@ -112,11 +123,20 @@ impl Merged {
 }
 
 /// The merged triples (shared with the Gram matrices read from them) and the keys not
-/// merged yet.
+/// merged yet: pending, and chunks of them being sorted on a lent core.
+///
+/// Sorting the new keys is most of a merge's work on small worlds. When a core is free
+/// (one seed of `mmq run` on two cores: [`crate::spare`]), each full chunk of pending
+/// keys is sorted there while the learner goes on, and the merge combines the sorted
+/// chunks with the rest. The counts are integers and the lists sorted, so they are the
+/// same whichever keys were sorted where.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct CoCounts {
     merged: Arc<Merged>,
     pending: Vec<u64>,
+    sorting: Vec<Later<Runs>>,
+    /// Keys in `sorting`.
+    handed: usize,
 }
 
 impl CoCounts {
@@ -124,14 +144,34 @@ impl CoCounts {
     #[inline]
     pub(crate) fn add(&mut self, i: usize, i2: usize, j: usize) {
         self.pending.push(key(i, i2, j));
-        if self.pending.len() >= PENDING_MAX {
+        if self.pending.len() & (CHUNK - 1) == 0 {
+            self.chunk_full();
+        }
+    }
+
+    /// A chunk of pending keys is full: they are merged at `PENDING_MAX` keys since the
+    /// last merge, else handed to a core to sort if one is free.
+    #[cold]
+    fn chunk_full(&mut self) {
+        if self.pending.len() + self.handed >= PENDING_MAX {
             self.merge(self.merged.n());
+            return;
+        }
+        let keys = std::mem::take(&mut self.pending);
+        let n = keys.len();
+        match crate::spare::lend(keys, |mut keys| sorted_runs(&mut keys)) {
+            Ok(later) => {
+                self.sorting.push(later);
+                self.handed += n;
+                self.pending.reserve(CHUNK);
+            }
+            Err(keys) => self.pending = keys,
         }
     }
 
     /// Whether [`Self::merge`] over `n` pairs has anything to do.
     pub(crate) fn merge_due(&self, n: usize) -> bool {
-        !self.pending.is_empty() || self.merged.n() != n
+        !self.pending.is_empty() || !self.sorting.is_empty() || self.merged.n() != n
     }
 
     /// Merges the pending keys into the sorted lists and indexes them over `n` pairs (at
@@ -141,17 +181,13 @@ impl CoCounts {
             return;
         }
         let mut new = std::mem::take(&mut self.pending);
-        radix_sort(&mut new);
         // The distinct new keys and how often each came.
-        let (mut fresh, mut runs) = (Vec::new(), Vec::new());
-        for &k in &new {
-            if fresh.last() == Some(&k) {
-                *runs.last_mut().expect("a run per key") += 1;
-            } else {
-                fresh.push(k);
-                runs.push(1u32);
-            }
+        let (mut fresh, mut runs) = sorted_runs(&mut new);
+        for chunk in self.sorting.drain(..) {
+            let (keys, counts) = chunk.wait();
+            (fresh, runs) = add_runs((&fresh, &runs), (keys, counts));
         }
+        self.handed = 0;
         new.clear();
         self.pending = new;
         // The old lists are given up one order at a time (when no Gram matrix still reads
@@ -202,7 +238,8 @@ impl CoCounts {
         self.merged.keys.len()
     }
 
-    /// Bytes held (merged, both orders and their indexes, and pending, by capacity).
+    /// Bytes held (merged, both orders and their indexes, and pending, by capacity; not
+    /// the chunks being sorted).
     pub(crate) fn bytes(&self) -> usize {
         let m = &self.merged;
         (m.keys.capacity() + m.tkeys.capacity()) * 8
@@ -211,6 +248,52 @@ impl CoCounts {
             + m.own_len.capacity() * 4
             + self.pending.capacity() * 8
     }
+}
+
+/// `keys` sorted, as distinct keys in ascending order with how often each came.
+fn sorted_runs(keys: &mut Vec<u64>) -> Runs {
+    radix_sort(keys);
+    let (mut fresh, mut runs) = (Vec::new(), Vec::new());
+    for &k in keys.iter() {
+        if fresh.last() == Some(&k) {
+            *runs.last_mut().expect("a run per key") += 1;
+        } else {
+            fresh.push(k);
+            runs.push(1u32);
+        }
+    }
+    (fresh, runs)
+}
+
+/// The union of two lists of distinct ascending keys with their counts, a key in both
+/// with the sum of its counts.
+fn add_runs((a, a_c): (&[u64], &[u32]), (b, b_c): (&[u64], &[u32])) -> Runs {
+    let (mut keys, mut counts) =
+        (Vec::with_capacity(a.len() + b.len()), Vec::with_capacity(a.len() + b.len()));
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let (k, c) = match a[i].cmp(&b[j]) {
+            std::cmp::Ordering::Less => {
+                i += 1;
+                (a[i - 1], a_c[i - 1])
+            }
+            std::cmp::Ordering::Greater => {
+                j += 1;
+                (b[j - 1], b_c[j - 1])
+            }
+            std::cmp::Ordering::Equal => {
+                (i, j) = (i + 1, j + 1);
+                (a[i - 1], a_c[i - 1] + b_c[j - 1])
+            }
+        };
+        keys.push(k);
+        counts.push(c);
+    }
+    for (rest, rest_c) in [(&a[i..], &a_c[i..]), (&b[j..], &b_c[j..])] {
+        keys.extend_from_slice(rest);
+        counts.extend_from_slice(rest_c);
+    }
+    (keys, counts)
 }
 
 /// The ascending distinct keys `old` (counts `old_c`) with the ascending distinct keys
@@ -448,8 +531,8 @@ mod tests {
 
     /// Random batches merged one after another, the pairs growing: the triples in both
     /// orders and by pair equal a count of every key, batch sizes below and above the
-    /// radix sort's cut-off; with both orders merged on this thread, and with the order
-    /// by later pair merged on a second.
+    /// radix sort's cut-off and the chunk size; with everything on this thread, and with
+    /// full chunks sorted and the order by later pair merged on a second.
     #[test]
     fn merged_orders_equal_a_plain_count() {
         for beside in [false, true] {
@@ -464,14 +547,18 @@ mod tests {
         use rand::RngExt;
         let mut c = CoCounts::default();
         let mut all: std::collections::BTreeMap<u64, u32> = std::collections::BTreeMap::new();
-        for (batch, pairs) in [(500, 8), (3000, 20), (10, 20), (0, 25), (6000, 60)] {
+        for (batch, pairs) in [(500, 8), (3000, 20), (10, 20), (0, 25), (6000, 60), (2 * CHUNK, 60)] {
             for _ in 0..batch {
                 let (i, i2, j) =
                     (rng.random_range(0..pairs), rng.random_range(0..pairs), rng.random_range(0..7));
                 c.add(i, i2, j);
                 *all.entry(key(i, i2, j)).or_default() += 1;
             }
+            // Full chunks went to the lent core, when there is one.
+            let lent = crate::spare::FORCE.with(std::cell::Cell::get) == Some(true);
+            assert_eq!(c.sorting.len(), if lent { batch / CHUNK } else { 0 });
             c.merge(pairs);
+            assert!(c.sorting.is_empty() && c.handed == 0);
             let m = c.merged();
             assert_eq!(m.n(), pairs);
             assert_eq!(m.iter().collect::<Vec<_>>(), all.iter().map(|(&k, &n)| (k, n)).collect::<Vec<_>>());
