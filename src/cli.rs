@@ -69,7 +69,7 @@ pub struct PaperArgs {
     /// First master seed.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Smoke-test budget (a minute or two): every figure, tiny numbers.
+    /// Smoke-test budget (seconds): every figure, tiny numbers.
     #[arg(long)]
     pub quick: bool,
     /// Output directory.
