@@ -3,10 +3,10 @@
 //! A run of `mmq` learns on one thread per seed. When fewer seeds run than the process
 //! has threads (one seed of `mmq run`, the last seeds of a sweep), the other cores idle;
 //! a learner can put one of them to work (the deconvolving learners run a refit's cold
-//! start beside its warm one, and sort their new statistics between refits). The runner says how many threads it runs learners on
-//! ([`set_threads`]) and counts the learners running ([`Job`]); a learner takes a core
-//! only while one is free (`borrow`), so that seeds in parallel never run more
-//! threads than there are. Without a runner (a learner used as a library, or stepped one
+//! start beside its warm one, and sort their new statistics between refits). The runner
+//! says how many threads it runs learners on ([`set_threads`]) and counts the learners
+//! running ([`Job`]); a learner takes a core only while one is free (`borrow`), so that
+//! seeds in parallel never run more threads than there are. Without a runner (a learner used as a library, or stepped one
 //! step at a time from Python) no core is spare and everything runs on the caller's
 //! thread; Python's `mmq.run` goes through the runner.
 //!
