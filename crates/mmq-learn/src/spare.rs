@@ -6,9 +6,9 @@
 //! start beside its warm one, and sort their new statistics between refits). The runner
 //! says how many threads it runs learners on ([`set_threads`]) and counts the learners
 //! running ([`Job`]); a learner takes a core only while one is free (`borrow`), so that
-//! seeds in parallel never run more threads than there are. Without a runner (a learner used as a library, or stepped one
-//! step at a time from Python) no core is spare and everything runs on the caller's
-//! thread; Python's `mmq.run` goes through the runner.
+//! seeds in parallel never run more threads than there are. Without a runner (a learner
+//! used as a library, or stepped one step at a time from Python) no core is spare and
+//! everything runs on the caller's thread; Python's `mmq.run` goes through the runner.
 //!
 //! Borrowing changes no result: what runs on the borrowed core is a computation the
 //! learner would otherwise make on its own thread, bit for bit.
