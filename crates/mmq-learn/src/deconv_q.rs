@@ -137,6 +137,7 @@ pub(crate) mod tests {
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
             cold_start_backoff: 0,
+            cheap_refits_below_se: 0.0,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,

@@ -315,6 +315,10 @@ mod tests {
         m.deconv.pmf_tolerance = -1e-4;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_tolerance"));
         m.deconv.pmf_tolerance = 0.0;
+        m.deconv.cheap_refits_below_se = f64::INFINITY;
+        let msg = e(&LearnerSettings::DeconvModel(m.clone()));
+        assert!(msg.contains("cheap_refits_below_se") && msg.contains("e.g. 0.5"), "{msg}");
+        m.deconv.cheap_refits_below_se = 0.0;
         m.deconv.refit_on_surprise = f64::NAN;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_on_surprise"));
         m.deconv.refit_on_surprise = 0.0;

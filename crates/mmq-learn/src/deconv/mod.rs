@@ -140,6 +140,8 @@ pub struct Deconvolver {
     /// Cold starts lost in a row, and the refits still to skip it (`cold_start_backoff`).
     cold_losses: u32,
     cold_skip: u32,
+    /// Whether the current (or last) refit is a cheap one (`cheap_refits_below_se`).
+    cheap: bool,
     /// Rounds of the alternation run by the kept start, over all refits (`pmf_rounds` per
     /// refit, fewer once the pmf settles with `pmf_tolerance`).
     rounds: u64,
@@ -200,6 +202,7 @@ impl Deconvolver {
             cold_wins: 0,
             cold_losses: 0,
             cold_skip: 0,
+            cheap: false,
             rounds: 0,
             joint_drops: 0,
             joint_factorisations: 0,
@@ -314,7 +317,7 @@ impl Deconvolver {
         let t = self.stats.t;
         if t >= self.next_refit {
             self.refit();
-            self.next_refit = next_refit_after(&self.cfg.settings, t);
+            self.next_refit = next_refit_after(&self.cfg.settings, t, self.cheap);
             refitted = true;
         }
         refitted
@@ -414,6 +417,7 @@ pub(crate) mod tests {
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
             cold_start_backoff: 0,
+            cheap_refits_below_se: 0.0,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,

@@ -15,9 +15,11 @@ use crate::spare;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// The step of the next refit after one at step `t`: every `refit_every` steps early on,
-/// every t/`refit_growth` later.
-pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64) -> u64 {
-    t + settings.refit_every.max(t / settings.refit_growth)
+/// every t/g later, g = `refit_growth`, or g/2 (at least 1) after a `cheap` refit
+/// (`cheap_refits_below_se`).
+pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64, cheap: bool) -> u64 {
+    let growth = if cheap { (settings.refit_growth / 2).max(1) } else { settings.refit_growth };
+    t + settings.refit_every.max(t / growth)
 }
 
 /// The reweighted passes of the fits of the delay pmf in round `round` (1: both starts) of
@@ -65,6 +67,8 @@ impl Deconvolver {
             return;
         }
         ds[0].merge_counts();
+        let cheap = ds[0].cheap_refit_due();
+        ds.iter_mut().for_each(|d| d.cheap = cheap);
         // σ̂ from the previous fit (Σ r² before the first: an upper bound), shared by
         // both starts so that their objectives compare.
         let sigmas: Vec<f64> = ds
@@ -78,7 +82,7 @@ impl Deconvolver {
             Self::fit_all(ds, &mut grams, &sigmas);
         } else {
             let rounds = ds[0].cfg.settings.pmf_rounds;
-            let passes = weighted_passes(ds[0].cfg.settings.pmf_weighted_rounds, rounds, 1);
+            let passes = weighted_passes(ds[0].weighted_rounds(), rounds, 1);
             let previous = ds[0].pmf.clone();
             let (start, done) = if ds[0].cold_skip > 0 {
                 ds.iter_mut().for_each(|d| d.cold_skip -= 1);
@@ -229,7 +233,7 @@ impl Deconvolver {
     ) -> Option<u64> {
         let settings = &ds[0].cfg.settings;
         let (rule, rounds, tolerance) =
-            (settings.pmf_weighted_rounds, settings.pmf_rounds, settings.pmf_tolerance);
+            (ds[0].weighted_rounds(), settings.pmf_rounds, settings.pmf_tolerance);
         let stopped = || stop.is_some_and(|s| s.load(Ordering::Acquire));
         let mut ran = 0;
         for round in 2..=rounds {
@@ -282,6 +286,25 @@ impl Deconvolver {
         }
     }
 
+    /// Whether a refit beginning now is a cheap one (`cheap_refits_below_se` s > 0): the
+    /// delay is estimated and the standard error of its median, from the last refit, is
+    /// below s.
+    fn cheap_refit_due(&self) -> bool {
+        let s = self.cfg.settings.cheap_refits_below_se;
+        s > 0.0 && self.cfg.told.is_none() && self.median_se.is_some_and(|m| m.steps < s)
+    }
+
+    /// The fits of this refit that run the reweighted passes: `pmf_weighted_rounds`, or
+    /// the last round only in a cheap refit.
+    fn weighted_rounds(&self) -> WeightedRounds {
+        if self.cheap { WeightedRounds::Last } else { self.cfg.settings.pmf_weighted_rounds }
+    }
+
+    /// Whether the last refit was a cheap one (`cheap_refits_below_se`).
+    pub(crate) fn cheap(&self) -> bool {
+        self.cheap
+    }
+
     /// Counts a cold start and whether it `won`. With `cold_start_backoff` n > 0, after
     /// the n-th loss in a row the next 2^(losses − n) refits (at most 64) skip it; a win
     /// starts the count again.
@@ -304,6 +327,7 @@ impl Deconvolver {
 mod tests {
     use crate::deconv::Deconvolver;
     use crate::deconv::tests::{cfg, noisy_walk};
+    use crate::settings::WeightedRounds;
     use crate::spare::FORCE;
 
     /// The refit in the plain sequential order, on the deconvolvers themselves: the warm
@@ -350,6 +374,101 @@ mod tests {
             }
             d.refits += 1;
         }
+    }
+
+    /// The refit schedule by hand: every `refit_every` (100) steps early on, then t/g with
+    /// g = `refit_growth` (8), or t/(g/2) after a cheap refit; g/2 is at least 1.
+    #[test]
+    fn refit_schedule_by_hand() {
+        let mut s = cfg(3, None).settings;
+        (s.refit_every, s.refit_growth) = (100, 8);
+        assert_eq!(super::next_refit_after(&s, 400, false), 500);
+        assert_eq!(super::next_refit_after(&s, 400, true), 500);
+        assert_eq!(super::next_refit_after(&s, 8000, false), 9000);
+        assert_eq!(super::next_refit_after(&s, 8000, true), 10_000);
+        s.refit_growth = 1;
+        assert_eq!(super::next_refit_after(&s, 8000, true), 16_000);
+    }
+
+    /// `cheap_refits_below_se`: a refit that begins with the median's standard error below
+    /// the setting is, bit for bit, the refit with `pmf_weighted_rounds = "last"`, and one
+    /// that begins without an error yet (the first) or with a larger one is the refit with
+    /// the settings; a told delay never makes a refit cheap. Refits every 400 steps of a
+    /// noisy walk, four rounds, reweighted passes.
+    #[test]
+    fn cheap_refits_are_the_last_round_rule_below_the_threshold() {
+        let mut c = cfg(8, None);
+        let s = &mut c.settings;
+        (s.lasso, s.significance, s.reward_prior, s.successor_groups) = (0.05, 1.0, 1.0, true);
+        (s.pmf_weighted, s.pmf_rounds, s.pmf_significance, s.pmf_prior) = (true, 4, 1.0, 0.1);
+        let walk = noisy_walk(&[0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05, 0.0, 0.0], 4000, 29);
+        // `rule(refit, median_se)`: the rule the reference refit runs under.
+        let run = |c: &crate::deconv::DeconvConfig, rule: &dyn Fn(u64, Option<f64>) -> WeightedRounds| {
+            let mut d = Deconvolver::new(c.clone(), 10, 3);
+            let mut cheap = Vec::new();
+            for (t, &(x, next, delivered)) in walk.iter().enumerate() {
+                d.record_successor(x, next);
+                d.record(x, delivered);
+                if (t + 1) % 400 == 0 {
+                    d.cfg.settings.pmf_weighted_rounds = rule(d.refits(), d.median_se().map(|m| m.steps));
+                    d.refit();
+                    cheap.push(d.cheap());
+                }
+            }
+            (d, cheap)
+        };
+        let bits = |d: &Deconvolver| {
+            let b = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            (b(d.rewards()), b(d.pmf()), d.rss.map(f64::to_bits), d.rounds)
+        };
+        let settings = |_: u64, _: Option<f64>| WeightedRounds::Every;
+        let (plain, _) = run(&c, &settings);
+        // Below every error: never cheap, the plain refits.
+        c.settings.cheap_refits_below_se = 1e-9;
+        let (never, cheap) = run(&c, &settings);
+        assert!(cheap.iter().all(|&x| !x));
+        assert_eq!(bits(&never), bits(&plain));
+        // Above every error: cheap from the second refit on.
+        c.settings.cheap_refits_below_se = 1e9;
+        let (always, cheap) = run(&c, &settings);
+        assert_eq!(cheap.iter().filter(|&&x| x).count(), 9, "{cheap:?}");
+        assert!(!cheap[0]);
+        let last_after_first = |refits: u64, _: Option<f64>| {
+            if refits == 0 { WeightedRounds::Every } else { WeightedRounds::Last }
+        };
+        c.settings.cheap_refits_below_se = 0.0;
+        let (by_hand, _) = run(&c, &last_after_first);
+        assert_eq!(bits(&always), bits(&by_hand));
+        assert_ne!(bits(&always), bits(&plain));
+        // In between: cheap exactly when the error the refit begins with is below.
+        let errors: Vec<f64> = {
+            c.settings.cheap_refits_below_se = 0.0;
+            let mut d = Deconvolver::new(c.clone(), 10, 3);
+            let mut out = Vec::new();
+            for (t, &(x, next, delivered)) in walk.iter().enumerate() {
+                d.record_successor(x, next);
+                d.record(x, delivered);
+                if (t + 1) % 400 == 0 {
+                    d.refit();
+                    out.push(d.median_se().map_or(f64::INFINITY, |m| m.steps));
+                }
+            }
+            out
+        };
+        let mut sorted = errors.clone();
+        sorted.sort_by(f64::total_cmp);
+        let threshold = (sorted[3] + sorted[4]) / 2.0;
+        c.settings.cheap_refits_below_se = threshold;
+        let (_, cheap) = run(&c, &settings);
+        // A refit's rule follows the error of the one before, as long as the two runs
+        // agree (they do until the first cheap refit).
+        let first = cheap.iter().position(|&x| x).expect("some refit is cheap");
+        assert!(errors[first - 1] < threshold && errors[..first - 1].iter().all(|&e| e >= threshold));
+        // A told delay: never cheap.
+        let mut told = cfg(8, Some(vec![1.0 / 9.0; 9]));
+        told.settings.cheap_refits_below_se = 1e9;
+        let (_, cheap) = run(&told, &settings);
+        assert!(cheap.iter().all(|&x| !x));
     }
 
     /// A refit with its cold start on copies, on one thread or beside the warm start on
