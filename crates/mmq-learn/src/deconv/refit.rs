@@ -402,64 +402,51 @@ mod tests {
         (s.lasso, s.significance, s.reward_prior, s.successor_groups) = (0.05, 1.0, 1.0, true);
         (s.pmf_weighted, s.pmf_rounds, s.pmf_significance, s.pmf_prior) = (true, 4, 1.0, 0.1);
         let walk = noisy_walk(&[0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05, 0.0, 0.0], 4000, 29);
-        // `rule(refit, median_se)`: the rule the reference refit runs under.
-        let run = |c: &crate::deconv::DeconvConfig, rule: &dyn Fn(u64, Option<f64>) -> WeightedRounds| {
+        // `rule(refits so far)`: the rule a refit runs under when it is not cheap. Returns
+        // the deconvolver, whether each refit was cheap and the error after each.
+        let run = |c: &crate::deconv::DeconvConfig, rule: &dyn Fn(u64) -> WeightedRounds| {
             let mut d = Deconvolver::new(c.clone(), 10, 3);
-            let mut cheap = Vec::new();
+            let (mut cheap, mut errors) = (Vec::new(), Vec::new());
             for (t, &(x, next, delivered)) in walk.iter().enumerate() {
                 d.record_successor(x, next);
                 d.record(x, delivered);
                 if (t + 1) % 400 == 0 {
-                    d.cfg.settings.pmf_weighted_rounds = rule(d.refits(), d.median_se().map(|m| m.steps));
+                    d.cfg.settings.pmf_weighted_rounds = rule(d.refits());
                     d.refit();
                     cheap.push(d.cheap());
+                    errors.push(d.median_se().map_or(f64::INFINITY, |m| m.steps));
                 }
             }
-            (d, cheap)
+            (d, cheap, errors)
         };
         let bits = |d: &Deconvolver| {
             let b = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             (b(d.rewards()), b(d.pmf()), d.rss.map(f64::to_bits), d.rounds)
         };
-        let settings = |_: u64, _: Option<f64>| WeightedRounds::Every;
-        let (plain, _) = run(&c, &settings);
+        let settings = |_: u64| WeightedRounds::Every;
+        let (plain, _, errors) = run(&c, &settings);
         // Below every error: never cheap, the plain refits.
         c.settings.cheap_refits_below_se = 1e-9;
-        let (never, cheap) = run(&c, &settings);
+        let (never, cheap, _) = run(&c, &settings);
         assert!(cheap.iter().all(|&x| !x));
         assert_eq!(bits(&never), bits(&plain));
         // Above every error: cheap from the second refit on.
         c.settings.cheap_refits_below_se = 1e9;
-        let (always, cheap) = run(&c, &settings);
+        let (always, cheap, _) = run(&c, &settings);
         assert_eq!(cheap.iter().filter(|&&x| x).count(), 9, "{cheap:?}");
         assert!(!cheap[0]);
-        let last_after_first = |refits: u64, _: Option<f64>| {
-            if refits == 0 { WeightedRounds::Every } else { WeightedRounds::Last }
-        };
+        let last_after_first =
+            |refits: u64| if refits == 0 { WeightedRounds::Every } else { WeightedRounds::Last };
         c.settings.cheap_refits_below_se = 0.0;
-        let (by_hand, _) = run(&c, &last_after_first);
+        let (by_hand, _, _) = run(&c, &last_after_first);
         assert_eq!(bits(&always), bits(&by_hand));
         assert_ne!(bits(&always), bits(&plain));
         // In between: cheap exactly when the error the refit begins with is below.
-        let errors: Vec<f64> = {
-            c.settings.cheap_refits_below_se = 0.0;
-            let mut d = Deconvolver::new(c.clone(), 10, 3);
-            let mut out = Vec::new();
-            for (t, &(x, next, delivered)) in walk.iter().enumerate() {
-                d.record_successor(x, next);
-                d.record(x, delivered);
-                if (t + 1) % 400 == 0 {
-                    d.refit();
-                    out.push(d.median_se().map_or(f64::INFINITY, |m| m.steps));
-                }
-            }
-            out
-        };
         let mut sorted = errors.clone();
         sorted.sort_by(f64::total_cmp);
         let threshold = (sorted[3] + sorted[4]) / 2.0;
         c.settings.cheap_refits_below_se = threshold;
-        let (_, cheap) = run(&c, &settings);
+        let (_, cheap, _) = run(&c, &settings);
         // A refit's rule follows the error of the one before, as long as the two runs
         // agree (they do until the first cheap refit).
         let first = cheap.iter().position(|&x| x).expect("some refit is cheap");
@@ -467,7 +454,7 @@ mod tests {
         // A told delay: never cheap.
         let mut told = cfg(8, Some(vec![1.0 / 9.0; 9]));
         told.settings.cheap_refits_below_se = 1e9;
-        let (_, cheap) = run(&told, &settings);
+        let (_, cheap, _) = run(&told, &settings);
         assert!(cheap.iter().all(|&x| !x));
     }
 
