@@ -185,7 +185,7 @@ impl CoCounts {
         let (mut fresh, mut runs) = sorted_runs(&mut new);
         for chunk in self.sorting.drain(..) {
             let (keys, counts) = chunk.wait();
-            (fresh, runs) = add_runs((&fresh, &runs), (keys, counts));
+            (fresh, runs) = merge_runs(fresh, runs, keys, counts, |_| {});
         }
         self.handed = 0;
         new.clear();
@@ -263,37 +263,6 @@ fn sorted_runs(keys: &mut Vec<u64>) -> Runs {
         }
     }
     (fresh, runs)
-}
-
-/// The union of two lists of distinct ascending keys with their counts, a key in both
-/// with the sum of its counts.
-fn add_runs((a, a_c): (&[u64], &[u32]), (b, b_c): (&[u64], &[u32])) -> Runs {
-    let (mut keys, mut counts) =
-        (Vec::with_capacity(a.len() + b.len()), Vec::with_capacity(a.len() + b.len()));
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        let (k, c) = match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => {
-                i += 1;
-                (a[i - 1], a_c[i - 1])
-            }
-            std::cmp::Ordering::Greater => {
-                j += 1;
-                (b[j - 1], b_c[j - 1])
-            }
-            std::cmp::Ordering::Equal => {
-                (i, j) = (i + 1, j + 1);
-                (a[i - 1], a_c[i - 1] + b_c[j - 1])
-            }
-        };
-        keys.push(k);
-        counts.push(c);
-    }
-    for (rest, rest_c) in [(&a[i..], &a_c[i..]), (&b[j..], &b_c[j..])] {
-        keys.extend_from_slice(rest);
-        counts.extend_from_slice(rest_c);
-    }
-    (keys, counts)
 }
 
 /// The ascending distinct keys `old` (counts `old_c`) with the ascending distinct keys
