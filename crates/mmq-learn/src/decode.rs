@@ -306,7 +306,7 @@ impl ValueDeconvolver {
     fn refit(&mut self) {
         Deconvolver::refit_all(&mut self.parts);
         let t = self.parts[0].steps();
-        self.next_refit = next_refit_after(&self.cfg.settings, t, self.parts[0].cheap());
+        self.next_refit = next_refit_after(&self.cfg.settings, t, self.parts[0].delay_settled());
         self.sum_rewards();
         self.update_values();
     }

@@ -226,15 +226,20 @@ pub struct DeconvSettings {
     /// Poisson 13 earned less (docs/performance.md, "Rounds until the pmf settles, and
     /// fewer cold starts").
     pub cold_start_backoff: u32,
-    /// s ≥ 0, in steps: a refit that begins with the standard error of the delay median
-    /// below s (the delay estimate has settled) runs the reweighted passes in its last
-    /// round only, as `pmf_weighted_rounds = "last"` does, and the next refit comes after
-    /// t/(g/2) steps instead of t/g (g: `refit_growth`); refits return to their settings
-    /// whenever the error is s or more. 0 (the default): off. With s = 0.5 paper-9x9 ran
-    /// at over 300 k steps per second and kept what the defaults earn under the four
-    /// delays and on the maze (docs/performance.md, "Cheaper refits once the delay is
-    /// known").
-    pub cheap_refits_below_se: f64,
+    /// s ≥ 0, in steps: once a refit finds the standard error of the delay median below
+    /// s (the delay estimate has settled), the next refit comes after t/g_s steps
+    /// (g_s: `settled_refit_growth`) instead of t/g (g: `refit_growth`); refits return to
+    /// t/g whenever the error is s or more. 0 (the default; `deconv-model`: 0.5): off. On
+    /// paper-9x9, s = 0.5 with g_s = 4 takes about 40 % off the CPU time of a
+    /// 150,000-step run and earns as much under the four delays and on the maze
+    /// (docs/performance.md, "Sparser refits once the delay has settled").
+    pub sparse_refits_below_se: f64,
+    /// g_s ≥ 1: the later refits come every t/g_s steps instead of t/g while the delay has
+    /// settled (`sparse_refits_below_se`; unused when that is 0). Default 4. g_s = 2 takes
+    /// paper-9x9 to over 400 k steps per second, but left the uniform delay's median
+    /// 1.5 steps off at 50k in the worst seed and one maze seed at 44 % of the ε-soft
+    /// ceiling (docs/performance.md, "Sparser refits once the delay has settled").
+    pub settled_refit_growth: u64,
     /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
     /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
     /// is none, which the agent then seeks; a cost put on the moves around a bump, which
@@ -269,7 +274,8 @@ impl Default for DeconvSettings {
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
             cold_start_backoff: 0,
-            cheap_refits_below_se: 0.0,
+            sparse_refits_below_se: 0.0,
+            settled_refit_growth: 4,
             refit_on_surprise: 0.0,
             told_delay: None,
         }
@@ -289,8 +295,8 @@ impl DeconvSettings {
             ("pmf_smoothness", self.pmf_smoothness, "use a penalty ≥ 0 in visits, e.g. 10 (0: off)"),
             ("pmf_tolerance", self.pmf_tolerance, "use a probability ≥ 0, e.g. 1e-4 (0: every round runs)"),
             (
-                "cheap_refits_below_se",
-                self.cheap_refits_below_se,
+                "sparse_refits_below_se",
+                self.sparse_refits_below_se,
                 "use a standard error ≥ 0 in steps, e.g. 0.5 (0: off)",
             ),
             (
@@ -312,6 +318,13 @@ impl DeconvSettings {
                 "refit_growth",
                 0,
                 "use a divisor ≥ 1 of the step count, e.g. 8 (refits every t/8 steps)",
+            );
+        }
+        if self.settled_refit_growth == 0 {
+            return bad(
+                "settled_refit_growth",
+                0,
+                "use a divisor ≥ 1 of the step count, e.g. 4 (refits every t/4 steps once the delay has settled)",
             );
         }
         if !(1..=20).contains(&self.pmf_rounds) {
@@ -451,8 +464,9 @@ impl ExploreSettings {
 ///
 /// Its defaults ([`Default`]) put the reward first: exploration from confidence (z = 2),
 /// delay probes on any step, refits every 100 steps early, four rounds of the
-/// alternation per refit, refits on surprise (z = 3) and planning the ε-greedy policy's
-/// values (docs/algorithms/deconv-model.md, "Reward first"). A setting that a
+/// alternation per refit, refits on surprise (z = 3), sparser refits once the delay has
+/// settled (s = 0.5 steps) and planning the ε-greedy policy's values
+/// (docs/algorithms/deconv-model.md, "Reward first"). A setting that a
 /// configuration file does not give reads as off ([`Self::when_absent`]): a recording
 /// made before a setting existed then replays as it ran.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -482,7 +496,13 @@ impl Default for DeconvModelSettings {
     fn default() -> Self {
         let off = Self::when_absent();
         Self {
-            deconv: DeconvSettings { refit_every: 100, pmf_rounds: 4, refit_on_surprise: 3.0, ..off.deconv },
+            deconv: DeconvSettings {
+                refit_every: 100,
+                pmf_rounds: 4,
+                refit_on_surprise: 3.0,
+                sparse_refits_below_se: 0.5,
+                ..off.deconv
+            },
             explore: ExploreSettings { probe_steps: crate::deconv_model::ProbeSteps::Any, ..off.explore },
             optimism_confidence: 2.0,
             plan_exploration: true,

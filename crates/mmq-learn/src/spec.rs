@@ -309,16 +309,19 @@ mod tests {
         m.deconv.refit_growth = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_growth"));
         m.deconv.refit_growth = 8;
+        m.deconv.settled_refit_growth = 0;
+        assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("settled_refit_growth"));
+        m.deconv.settled_refit_growth = 4;
         m.deconv.pmf_rounds = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_rounds"));
         m.deconv.pmf_rounds = 1;
         m.deconv.pmf_tolerance = -1e-4;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_tolerance"));
         m.deconv.pmf_tolerance = 0.0;
-        m.deconv.cheap_refits_below_se = f64::INFINITY;
+        m.deconv.sparse_refits_below_se = f64::INFINITY;
         let msg = e(&LearnerSettings::DeconvModel(m.clone()));
-        assert!(msg.contains("cheap_refits_below_se") && msg.contains("e.g. 0.5"), "{msg}");
-        m.deconv.cheap_refits_below_se = 0.0;
+        assert!(msg.contains("sparse_refits_below_se") && msg.contains("e.g. 0.5"), "{msg}");
+        m.deconv.sparse_refits_below_se = 0.0;
         m.deconv.refit_on_surprise = f64::NAN;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("refit_on_surprise"));
         m.deconv.refit_on_surprise = 0.0;
@@ -439,6 +442,7 @@ mod tests {
         };
         assert_eq!((d.optimism_confidence, d.plan_exploration), (2.0, true));
         assert_eq!((d.deconv.refit_every, d.deconv.pmf_rounds, d.deconv.refit_on_surprise), (100, 4, 3.0));
+        assert_eq!(d.deconv.sparse_refits_below_se, 0.5);
         assert_eq!(d.explore.probe_steps, ProbeSteps::Any);
         // The rest is the shared deconvolution's and exploration's defaults.
         assert_eq!(d.deconv.lasso, 0.1);

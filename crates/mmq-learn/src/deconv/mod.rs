@@ -23,7 +23,8 @@
 //! * **R given p** is a lasso with Gram matrix G = Σ_t ψ_t ψ_tᵀ, ψ_t(x) = Σ_{k: x_{t−k}=x}
 //!   p(k), and b = Σ_t r_t ψ_t, solved by coordinate descent from the previous R̂;
 //! * **p given R** is a 51-dimensional quadratic programme over the simplex, solved by
-//!   accelerated projected gradient (FISTA) from the previous p̂.
+//!   accelerated projected gradient (FISTA, with restarts) from the previous p̂ until
+//!   it stops moving.
 //!
 //! Neither needs the history: with the lag co-occurrence counts
 //! C_j(x, x') = #{t : x_{t−j} = x, x_t = x'} and the lagged reward sums
@@ -72,8 +73,10 @@ use std::sync::Arc;
 const PAIR_PENALTY: f64 = 1.25;
 /// Reweighted passes of a weighted fit of the delay pmf.
 pub(crate) const WEIGHTED_PASSES: usize = 3;
-/// Iterations of the projected-gradient solve for p.
+/// Iterations of the projected-gradient solve for p, at most.
 const QP_ITERS: usize = 300;
+/// The projected-gradient solve for p stops once an iteration moves no p(k) by more.
+const QP_TOL: f64 = 1e-12;
 /// Coordinate-descent sweeps for R (at most; stops when no estimate moves by 1e-12).
 const CD_SWEEPS: usize = 200;
 /// Sweeps between two drops of the joint test (the last fit runs to `CD_SWEEPS`).
@@ -140,8 +143,6 @@ pub struct Deconvolver {
     /// Cold starts lost in a row, and the refits still to skip it (`cold_start_backoff`).
     cold_losses: u32,
     cold_skip: u32,
-    /// Whether the current (or last) refit is a cheap one (`cheap_refits_below_se`).
-    cheap: bool,
     /// Rounds of the alternation run by the kept start, over all refits (`pmf_rounds` per
     /// refit, fewer once the pmf settles with `pmf_tolerance`).
     rounds: u64,
@@ -202,7 +203,6 @@ impl Deconvolver {
             cold_wins: 0,
             cold_losses: 0,
             cold_skip: 0,
-            cheap: false,
             rounds: 0,
             joint_drops: 0,
             joint_factorisations: 0,
@@ -317,7 +317,7 @@ impl Deconvolver {
         let t = self.stats.t;
         if t >= self.next_refit {
             self.refit();
-            self.next_refit = next_refit_after(&self.cfg.settings, t, self.cheap);
+            self.next_refit = next_refit_after(&self.cfg.settings, t, self.delay_settled());
             refitted = true;
         }
         refitted
@@ -417,7 +417,8 @@ pub(crate) mod tests {
             pmf_rounds: 1,
             pmf_tolerance: 0.0,
             cold_start_backoff: 0,
-            cheap_refits_below_se: 0.0,
+            sparse_refits_below_se: 0.0,
+            settled_refit_growth: 4,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,

@@ -15,10 +15,10 @@ use crate::spare;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
 /// The step of the next refit after one at step `t`: every `refit_every` steps early on,
-/// every t/g later, g = `refit_growth`, or g/2 (at least 1) after a `cheap` refit
-/// (`cheap_refits_below_se`).
-pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64, cheap: bool) -> u64 {
-    let growth = if cheap { (settings.refit_growth / 2).max(1) } else { settings.refit_growth };
+/// every t/g later, g = `refit_growth`, or g = `settled_refit_growth` when that refit
+/// found the delay `settled` ([`Deconvolver::delay_settled`], `sparse_refits_below_se`).
+pub(crate) fn next_refit_after(settings: &DeconvSettings, t: u64, settled: bool) -> u64 {
+    let growth = if settled { settings.settled_refit_growth } else { settings.refit_growth };
     t + settings.refit_every.max(t / growth)
 }
 
@@ -67,8 +67,6 @@ impl Deconvolver {
             return;
         }
         ds[0].merge_counts();
-        let cheap = ds[0].cheap_refit_due();
-        ds.iter_mut().for_each(|d| d.cheap = cheap);
         // σ̂ from the previous fit (Σ r² before the first: an upper bound), shared by
         // both starts so that their objectives compare.
         let sigmas: Vec<f64> = ds
@@ -82,7 +80,7 @@ impl Deconvolver {
             Self::fit_all(ds, &mut grams, &sigmas);
         } else {
             let rounds = ds[0].cfg.settings.pmf_rounds;
-            let passes = weighted_passes(ds[0].weighted_rounds(), rounds, 1);
+            let passes = weighted_passes(ds[0].cfg.settings.pmf_weighted_rounds, rounds, 1);
             let previous = ds[0].pmf.clone();
             let (start, done) = if ds[0].cold_skip > 0 {
                 ds.iter_mut().for_each(|d| d.cold_skip -= 1);
@@ -233,7 +231,7 @@ impl Deconvolver {
     ) -> Option<u64> {
         let settings = &ds[0].cfg.settings;
         let (rule, rounds, tolerance) =
-            (ds[0].weighted_rounds(), settings.pmf_rounds, settings.pmf_tolerance);
+            (settings.pmf_weighted_rounds, settings.pmf_rounds, settings.pmf_tolerance);
         let stopped = || stop.is_some_and(|s| s.load(Ordering::Acquire));
         let mut ran = 0;
         for round in 2..=rounds {
@@ -286,23 +284,13 @@ impl Deconvolver {
         }
     }
 
-    /// Whether a refit beginning now is a cheap one (`cheap_refits_below_se` s > 0): the
-    /// delay is estimated and the standard error of its median, from the last refit, is
-    /// below s.
-    fn cheap_refit_due(&self) -> bool {
-        let s = self.cfg.settings.cheap_refits_below_se;
+    /// Whether the delay estimate has settled for `sparse_refits_below_se` s > 0: it is
+    /// estimated (not told) and the standard error of its median, from the last refit, is
+    /// below s. The next refit then comes after t/`settled_refit_growth` steps instead of
+    /// t/`refit_growth`.
+    pub(crate) fn delay_settled(&self) -> bool {
+        let s = self.cfg.settings.sparse_refits_below_se;
         s > 0.0 && self.cfg.told.is_none() && self.median_se.is_some_and(|m| m.steps < s)
-    }
-
-    /// The fits of this refit that run the reweighted passes: `pmf_weighted_rounds`, or
-    /// the last round only in a cheap refit.
-    fn weighted_rounds(&self) -> WeightedRounds {
-        if self.cheap { WeightedRounds::Last } else { self.cfg.settings.pmf_weighted_rounds }
-    }
-
-    /// Whether the last refit was a cheap one (`cheap_refits_below_se`).
-    pub(crate) fn cheap(&self) -> bool {
-        self.cheap
     }
 
     /// Counts a cold start and whether it `won`. With `cold_start_backoff` n > 0, after
@@ -327,7 +315,6 @@ impl Deconvolver {
 mod tests {
     use crate::deconv::Deconvolver;
     use crate::deconv::tests::{cfg, noisy_walk};
-    use crate::settings::WeightedRounds;
     use crate::spare::FORCE;
 
     /// The refit in the plain sequential order, on the deconvolvers themselves: the warm
@@ -377,85 +364,90 @@ mod tests {
     }
 
     /// The refit schedule by hand: every `refit_every` (100) steps early on, then t/g with
-    /// g = `refit_growth` (8), or t/(g/2) after a cheap refit; g/2 is at least 1.
+    /// g = `refit_growth` (8), or t/g_s (g_s = `settled_refit_growth`, 4) after a refit
+    /// that found the delay settled.
     #[test]
     fn refit_schedule_by_hand() {
         let mut s = cfg(3, None).settings;
-        (s.refit_every, s.refit_growth) = (100, 8);
+        (s.refit_every, s.refit_growth, s.settled_refit_growth) = (100, 8, 4);
         assert_eq!(super::next_refit_after(&s, 400, false), 500);
         assert_eq!(super::next_refit_after(&s, 400, true), 500);
         assert_eq!(super::next_refit_after(&s, 8000, false), 9000);
         assert_eq!(super::next_refit_after(&s, 8000, true), 10_000);
-        s.refit_growth = 1;
+        s.settled_refit_growth = 1;
         assert_eq!(super::next_refit_after(&s, 8000, true), 16_000);
+        assert_eq!(super::next_refit_after(&s, 8000, false), 9000);
     }
 
-    /// `cheap_refits_below_se`: a refit that begins with the median's standard error below
-    /// the setting is, bit for bit, the refit with `pmf_weighted_rounds = "last"`, and one
-    /// that begins without an error yet (the first) or with a larger one is the refit with
-    /// the settings; a told delay never makes a refit cheap. Refits every 400 steps of a
-    /// noisy walk, four rounds, reweighted passes.
+    /// `sparse_refits_below_se`: the refits of a run through `observe` come on the
+    /// schedule, t + max(`refit_every`, t/g), except after a refit that found the delay
+    /// median's standard error below the setting, where the next comes at
+    /// t + max(`refit_every`, t/g_s); the refits themselves are untouched (bit for bit
+    /// those of refits called at the same steps). Off (0), below every error, or with the
+    /// delay told, the schedule is the plain one. A noisy walk of 12,000 steps, four rounds,
+    /// reweighted passes, `refit_every` 200, g = 4, g_s = 2.
     #[test]
-    fn cheap_refits_are_the_last_round_rule_below_the_threshold() {
+    fn sparse_refits_come_at_t_over_half_g_once_the_delay_settles() {
         let mut c = cfg(8, None);
         let s = &mut c.settings;
         (s.lasso, s.significance, s.reward_prior, s.successor_groups) = (0.05, 1.0, 1.0, true);
         (s.pmf_weighted, s.pmf_rounds, s.pmf_significance, s.pmf_prior) = (true, 4, 1.0, 0.1);
-        let walk = noisy_walk(&[0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05, 0.0, 0.0], 4000, 29);
-        // `rule(refits so far)`: the rule a refit runs under when it is not cheap. Returns
-        // the deconvolver, whether each refit was cheap and the error after each.
-        let run = |c: &crate::deconv::DeconvConfig, rule: &dyn Fn(u64) -> WeightedRounds| {
+        (s.refit_every, s.refit_growth, s.settled_refit_growth) = (200, 4, 2);
+        let walk = noisy_walk(&[0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05, 0.0, 0.0], 12_000, 29);
+        // The steps of the refits, the error each found and the deconvolver at the end.
+        let run = |c: &crate::deconv::DeconvConfig| {
             let mut d = Deconvolver::new(c.clone(), 10, 3);
-            let (mut cheap, mut errors) = (Vec::new(), Vec::new());
-            for (t, &(x, next, delivered)) in walk.iter().enumerate() {
+            let (mut at, mut errors) = (Vec::new(), Vec::new());
+            for &(x, next, delivered) in &walk {
                 d.record_successor(x, next);
-                d.record(x, delivered);
-                if (t + 1) % 400 == 0 {
-                    d.cfg.settings.pmf_weighted_rounds = rule(d.refits());
-                    d.refit();
-                    cheap.push(d.cheap());
+                if d.observe(x, delivered) {
+                    at.push(d.steps());
                     errors.push(d.median_se().map_or(f64::INFINITY, |m| m.steps));
                 }
             }
-            (d, cheap, errors)
+            (at, errors, d)
         };
         let bits = |d: &Deconvolver| {
             let b = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             (b(d.rewards()), b(d.pmf()), d.rss.map(f64::to_bits), d.rounds)
         };
-        let settings = |_: u64| WeightedRounds::Every;
-        let (plain, _, errors) = run(&c, &settings);
-        // Below every error: never cheap, the plain refits.
-        c.settings.cheap_refits_below_se = 1e-9;
-        let (never, cheap, _) = run(&c, &settings);
-        assert!(cheap.iter().all(|&x| !x));
-        assert_eq!(bits(&never), bits(&plain));
-        // Above every error: cheap from the second refit on.
-        c.settings.cheap_refits_below_se = 1e9;
-        let (always, cheap, _) = run(&c, &settings);
-        assert_eq!(cheap.iter().filter(|&&x| x).count(), 9, "{cheap:?}");
-        assert!(!cheap[0]);
-        let last_after_first =
-            |refits: u64| if refits == 0 { WeightedRounds::Every } else { WeightedRounds::Last };
-        c.settings.cheap_refits_below_se = 0.0;
-        let (by_hand, _, _) = run(&c, &last_after_first);
-        assert_eq!(bits(&always), bits(&by_hand));
-        assert_ne!(bits(&always), bits(&plain));
-        // In between: cheap exactly when the error the refit begins with is below.
+        // The gap after the refit at t, with the delay settled or not.
+        let gap = |t: u64, settled: bool| 200.max(t / if settled { 2 } else { 4 });
+        let (plain_at, errors, plain) = run(&c);
+        for w in plain_at.windows(2) {
+            assert_eq!(w[1] - w[0], gap(w[0], false));
+        }
+        c.settings.sparse_refits_below_se = 1e-9;
+        let (at, _, d) = run(&c);
+        assert_eq!((&at, bits(&d)), (&plain_at, bits(&plain)));
+        // A threshold some errors fall below: the gap follows each refit's own error.
         let mut sorted = errors.clone();
         sorted.sort_by(f64::total_cmp);
-        let threshold = (sorted[3] + sorted[4]) / 2.0;
-        c.settings.cheap_refits_below_se = threshold;
-        let (_, cheap, _) = run(&c, &settings);
-        // A refit's rule follows the error of the one before, as long as the two runs
-        // agree (they do until the first cheap refit).
-        let first = cheap.iter().position(|&x| x).expect("some refit is cheap");
-        assert!(errors[first - 1] < threshold && errors[..first - 1].iter().all(|&e| e >= threshold));
-        // A told delay: never cheap.
+        let s = (sorted[sorted.len() / 2] + sorted[sorted.len() / 2 + 1]) / 2.0;
+        c.settings.sparse_refits_below_se = s;
+        let (at, errors, d) = run(&c);
+        let settled: Vec<bool> = errors.iter().map(|&e| e < s).collect();
+        assert!(settled.iter().any(|&x| x) && at.len() < plain_at.len(), "{errors:?}");
+        for (w, &settled) in at.windows(2).zip(&settled) {
+            assert_eq!(w[1] - w[0], gap(w[0], settled), "after the refit at {}", w[0]);
+        }
+        // The refits are those of refits called at the same steps.
+        let mut by_hand = Deconvolver::new(c.clone(), 10, 3);
+        for &(x, next, delivered) in &walk {
+            by_hand.record_successor(x, next);
+            by_hand.record(x, delivered);
+            if at.contains(&by_hand.steps()) {
+                by_hand.refit();
+            }
+        }
+        assert_eq!(bits(&d), bits(&by_hand));
+        // A told delay: never settled, the plain schedule.
         let mut told = cfg(8, Some(vec![1.0 / 9.0; 9]));
-        told.settings.cheap_refits_below_se = 1e9;
-        let (_, cheap, _) = run(&told, &settings);
-        assert!(cheap.iter().all(|&x| !x));
+        let t = &mut told.settings;
+        (t.refit_every, t.refit_growth, t.settled_refit_growth) = (200, 4, 2);
+        told.settings.sparse_refits_below_se = 1e9;
+        let (at, _, _) = run(&told);
+        assert_eq!(at, plain_at);
     }
 
     /// A refit with its cold start on copies, on one thread or beside the warm start on
