@@ -230,15 +230,17 @@ pub struct DeconvSettings {
     /// s (the delay estimate has settled), the next refit comes after t/g_s steps
     /// (g_s: `settled_refit_growth`) instead of t/g (g: `refit_growth`); refits return to
     /// t/g whenever the error is s or more. 0 (the default; `deconv-model`: 0.5): off. On
-    /// paper-9x9, s = 0.5 with g_s = 4 takes about 40 % off the CPU time of a
-    /// 150,000-step run and earns as much under the four delays and on the maze
-    /// (docs/performance.md, "Sparser refits once the delay has settled").
+    /// paper-9x9, s = 0.5 with g_s = 3 halves the CPU time of a 150,000-step run and
+    /// earns as much under the four delays and on the maze (docs/performance.md,
+    /// "Sparser refits once the delay has settled").
     pub sparse_refits_below_se: f64,
     /// g_s ≥ 1: the later refits come every t/g_s steps instead of t/g while the delay has
-    /// settled (`sparse_refits_below_se`; unused when that is 0). Default 4. g_s = 2 takes
-    /// paper-9x9 to over 400 k steps per second, but left the uniform delay's median
-    /// 1.5 steps off at 50k in the worst seed and one maze seed at 44 % of the ε-soft
-    /// ceiling (docs/performance.md, "Sparser refits once the delay has settled").
+    /// settled (`sparse_refits_below_se`; unused when that is 0). Default 3 (paper-9x9 at
+    /// over 300 k steps per second with a spare core). g_s = 4 earned as much and took a
+    /// fifth more time; g_s = 2 runs at over 400 k steps per second but left the uniform
+    /// delay's median 1.5 steps off at 50k in the worst seed and one maze seed at 44 % of
+    /// the ε-soft ceiling (docs/performance.md, "Sparser refits once the delay has
+    /// settled").
     pub settled_refit_growth: u64,
     /// z ≥ 0: refit at once when the deliveries since the last refit fall short of what
     /// R̂ and p̂ predict by more than z standard errors (a reward the fit put where there
@@ -275,7 +277,7 @@ impl Default for DeconvSettings {
             pmf_tolerance: 0.0,
             cold_start_backoff: 0,
             sparse_refits_below_se: 0.0,
-            settled_refit_growth: 4,
+            settled_refit_growth: 3,
             refit_on_surprise: 0.0,
             told_delay: None,
         }
@@ -324,7 +326,7 @@ impl DeconvSettings {
             return bad(
                 "settled_refit_growth",
                 0,
-                "use a divisor ≥ 1 of the step count, e.g. 4 (refits every t/4 steps once the delay has settled)",
+                "use a divisor ≥ 1 of the step count, e.g. 3 (refits every t/3 steps once the delay has settled)",
             );
         }
         if !(1..=20).contains(&self.pmf_rounds) {

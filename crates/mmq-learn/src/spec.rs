@@ -311,7 +311,7 @@ mod tests {
         m.deconv.refit_growth = 8;
         m.deconv.settled_refit_growth = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("settled_refit_growth"));
-        m.deconv.settled_refit_growth = 4;
+        m.deconv.settled_refit_growth = 3;
         m.deconv.pmf_rounds = 0;
         assert!(e(&LearnerSettings::DeconvModel(m.clone())).contains("pmf_rounds"));
         m.deconv.pmf_rounds = 1;
@@ -442,7 +442,7 @@ mod tests {
         };
         assert_eq!((d.optimism_confidence, d.plan_exploration), (2.0, true));
         assert_eq!((d.deconv.refit_every, d.deconv.pmf_rounds, d.deconv.refit_on_surprise), (100, 4, 3.0));
-        assert_eq!(d.deconv.sparse_refits_below_se, 0.5);
+        assert_eq!((d.deconv.sparse_refits_below_se, d.deconv.settled_refit_growth), (0.5, 3));
         assert_eq!(d.explore.probe_steps, ProbeSteps::Any);
         // The rest is the shared deconvolution's and exploration's defaults.
         assert_eq!(d.deconv.lasso, 0.1);

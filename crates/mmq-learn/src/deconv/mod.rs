@@ -418,7 +418,7 @@ pub(crate) mod tests {
             pmf_tolerance: 0.0,
             cold_start_backoff: 0,
             sparse_refits_below_se: 0.0,
-            settled_refit_growth: 4,
+            settled_refit_growth: 3,
             refit_on_surprise: 0.0,
             decode_values: false,
             told_delay: None,
