@@ -387,7 +387,7 @@ mod tests {
     /// delay told, the schedule is the plain one. A noisy walk of 12,000 steps, four rounds,
     /// reweighted passes, `refit_every` 200, g = 4, g_s = 2.
     #[test]
-    fn sparse_refits_come_at_t_over_half_g_once_the_delay_settles() {
+    fn sparse_refits_come_every_t_over_g_s_once_the_delay_settles() {
         let mut c = cfg(8, None);
         let s = &mut c.settings;
         (s.lasso, s.significance, s.reward_prior, s.successor_groups) = (0.05, 1.0, 1.0, true);
