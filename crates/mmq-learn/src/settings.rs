@@ -230,9 +230,9 @@ pub struct DeconvSettings {
     /// s (the delay estimate has settled), the next refit comes after t/g_s steps
     /// (g_s: `settled_refit_growth`) instead of t/g (g: `refit_growth`); refits return to
     /// t/g whenever the error is s or more. 0 (the default; `deconv-model`: 0.5): off. On
-    /// paper-9x9, s = 0.5 with g_s = 3 halves the CPU time of a 150,000-step run and
-    /// earns as much under the four delays and on the maze (docs/performance.md,
-    /// "Sparser refits once the delay has settled").
+    /// paper-9x9, s = 0.5 with g_s = 3 takes about 40 % off the CPU time of a
+    /// 150,000-step run and earns as much under the four delays and on the maze
+    /// (docs/performance.md, "Sparser refits once the delay has settled").
     pub sparse_refits_below_se: f64,
     /// g_s ≥ 1: the later refits come every t/g_s steps instead of t/g while the delay has
     /// settled (`sparse_refits_below_se`; unused when that is 0). Default 3 (paper-9x9 at
