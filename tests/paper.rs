@@ -276,3 +276,132 @@ fn edited_figure_specs_give_the_figure_for_the_variant() {
     assert!(rows[0].starts_with("paper-5x5,poisson:3,0.1,q,false,1,"), "{csv}");
     assert!(rows[1].starts_with("paper-5x5,poisson:3,0.1,deconv-q,false,1,"), "{csv}");
 }
+
+/// Runs `mmq paper --fig 2,3,4` on a tiny budget with the given edited figure specs and
+/// returns the report and the three figures' CSVs.
+fn edited_early_figures(
+    fig2_delays: &str,
+    fig3_worlds: &str,
+    fig4_hats: &str,
+) -> (String, [Vec<HashMap<String, String>>; 3]) {
+    let d = tempfile::tempdir().unwrap();
+    let specs = d.path().join("specs");
+    std::fs::create_dir(&specs).unwrap();
+    let shipped = |name: &str| {
+        std::fs::read_to_string(format!("{}/worlds/sweeps/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    };
+    let replace_line = |text: String, key: &str, value: &str| -> String {
+        let mut out = String::new();
+        let mut skipping = false;
+        for line in text.lines() {
+            if skipping {
+                skipping = !line.starts_with(']');
+                continue;
+            }
+            if line.starts_with(&format!("{key} = ")) {
+                out.push_str(&format!("{key} = {value}\n"));
+                skipping = line.ends_with('[');
+                continue;
+            }
+            out.push_str(line);
+            out.push('\n');
+        }
+        out
+    };
+    std::fs::write(
+        specs.join("paper-fig2.toml"),
+        replace_line(shipped("paper-fig2.toml"), "delay", fig2_delays),
+    )
+    .unwrap();
+    std::fs::write(
+        specs.join("paper-fig3.toml"),
+        replace_line(shipped("paper-fig3.toml"), "world", fig3_worlds),
+    )
+    .unwrap();
+    std::fs::write(
+        specs.join("paper-fig4.toml"),
+        replace_line(shipped("paper-fig4.toml"), "lambda_hat", fig4_hats),
+    )
+    .unwrap();
+    let out = d.path().join("report");
+    let o = Command::new(env!("CARGO_BIN_EXE_mmq"))
+        .args(["paper", "--quick", "--fig", "2,3,4", "--seeds", "2", "--steps", "3000", "-q", "--specs"])
+        .arg(&specs)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    (md, [csv(&out.join("fig2.csv")), csv(&out.join("fig3.csv")), csv(&out.join("fig4.csv"))])
+}
+
+/// A CSV row's mean as the report prints it: "—" where it is absent (NaN).
+fn shown(row: &HashMap<String, String>) -> String {
+    if row["mean"] == "NaN" { "—".to_string() } else { pct(&row["mean"], &row["ci95"]) }
+}
+
+fn column(rows: &[HashMap<String, String>], key: &str) -> Vec<String> {
+    let mut v: Vec<String> = Vec::new();
+    for r in rows {
+        if v.last() != Some(&r[key]) {
+            v.push(r[key].clone());
+        }
+    }
+    v
+}
+
+/// Figs. 2–4 from edited specs with fewer settings than the paper's: every label is the
+/// setting's own value (λ, the world's size, λ̂ and i), in the plan's order.
+#[test]
+fn edited_early_figures_with_fewer_settings_are_labelled_by_their_values() {
+    let (md, [f2, f3, f4]) = edited_early_figures(
+        r#"["poisson:0", "poisson:5", "poisson:10", "poisson:15", "poisson:20"]"#,
+        r#"["paper-9x9", "paper-3x3"]"#,
+        "[15, 17, 19]",
+    );
+    assert_eq!(column(&f2, "lambda"), ["0", "5", "10", "15", "20"]);
+    // The paper's reference points that ran are the table's rows, with the CSV's values.
+    for l in ["0", "10", "20"] {
+        let row = f2.iter().find(|r| r["lambda"] == l).unwrap();
+        let line = md
+            .lines()
+            .find(|x| x.starts_with(&format!("| {l} |")))
+            .unwrap_or_else(|| panic!("λ = {l}: {md}"));
+        assert!(line.ends_with(&format!("| {} |", shown(row))), "{line}");
+    }
+    assert!(!md.lines().any(|x| x.starts_with("| 3 |")), "λ = 3 did not run: {md}");
+    assert_eq!(column(&f3, "world"), ["9×9", "3×3"]);
+    assert!(
+        md.contains("| 9×9 | falls with size | ≈ 1 % |") && md.contains("| 3×3 | falls with size | ≈ 85 % |")
+    );
+    assert_eq!(column(&f4, "i"), ["-2", "0", "2"]);
+    assert_eq!(column(&f4, "lambda_hat"), ["15", "17", "19"]);
+    let last = shown(&f4[2]);
+    assert!(md.contains(&format!("| i = +2 | — | — | {last} |")), "{md}");
+    assert!(md.contains("| i = −2 | — | — |"), "{md}");
+}
+
+/// The same with more settings than the paper's: a longer λ range, a fourth world, a
+/// wider λ̂ range.
+#[test]
+fn edited_early_figures_with_more_settings_are_labelled_by_their_values() {
+    let delays: Vec<String> = (0..=20).map(|k| format!("\"poisson:{}\"", 2 * k)).collect();
+    let (md, [f2, f3, f4]) = edited_early_figures(
+        &format!("[{}]", delays.join(", ")),
+        r#"["paper-3x3", "paper-5x5", "paper-9x9", "corridor-7x3"]"#,
+        &format!("[{}]", (5..=29).map(|k| k.to_string()).collect::<Vec<_>>().join(", ")),
+    );
+    let want: Vec<String> = (0..=20).map(|k| (2 * k).to_string()).collect();
+    assert_eq!(column(&f2, "lambda"), want);
+    let row = f2.iter().find(|r| r["lambda"] == "20").unwrap();
+    let line = md.lines().find(|x| x.starts_with("| 20 | lowest |")).unwrap();
+    assert!(line.ends_with(&format!("| {} |", shown(row))), "{line}");
+    assert!(!md.lines().any(|x| x.starts_with("| 3 |")), "λ = 3 did not run: {md}");
+    assert_eq!(column(&f3, "world"), ["3×3", "5×5", "9×9", "7×3"]);
+    assert!(md.contains("| 7×3 | falls with size | — |"), "{md}");
+    let is: Vec<String> = (-12..=12).map(|i: i64| i.to_string()).collect();
+    assert_eq!(column(&f4, "i"), is);
+    assert_eq!(f4.last().unwrap()["lambda_hat"], "29");
+    assert!(md.contains("| i = −12 | — | — |") && md.contains("| i = +12 | — | — |"), "{md}");
+}

@@ -9,6 +9,7 @@
 //! The library prints nothing: long work reports through a [`Progress`] the caller
 //! supplies (the command line shows a bar), and each entry point returns what it wrote.
 
+mod axes;
 mod comparison;
 pub mod paper;
 pub mod sweep;
