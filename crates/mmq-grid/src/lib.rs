@@ -117,6 +117,8 @@ mod tests {
             .filter(|p| p.extension().is_some_and(|x| x == "toml"))
             .collect();
         v.sort();
+        // The shipped worlds: a loop over none of them would check nothing.
+        assert!(v.len() >= 8, "expected the 8 shipped worlds in {dir}, found {}", v.len());
         v.iter().map(|p| World::load(p).unwrap()).collect()
     }
 
