@@ -410,21 +410,4 @@ mod tests {
         let e = spec(&format!("{base}[[part]]\nseeds = \"all\"\n")).unwrap_err().to_string();
         assert!(e.contains("t.toml:6:9: seeds:"), "{e}");
     }
-
-    /// Master seeds are u64 throughout, as `mmq run --seed` takes them: up to
-    /// 2^64 − 1, in `seed`, `seeds` lists and parts; only seeds may pass 2^63 − 1.
-    #[test]
-    fn seeds_go_up_to_the_largest_u64() {
-        let base = "world = \"../paper-3x3.toml\"\nsteps = 100\n";
-        let top = spec(&format!("{base}seed = 18446744073709551615\n")).unwrap();
-        assert_eq!(top.plan.seeds, [u64::MAX]);
-        let list = spec(&format!("{base}seeds = [1, 18446744073709551615]\n")).unwrap();
-        assert_eq!(list.plan.seeds, [1, u64::MAX]);
-        let part = spec(&format!("{base}[[part]]\nseed = 18446744073709551615\n")).unwrap();
-        assert_eq!(part.plan.seeds, [u64::MAX]);
-        let e = spec(&format!("{base}seed = 18446744073709551615\nseeds = 2\n")).unwrap_err().to_string();
-        assert!(e.contains("would pass 2^64 − 1"), "{e}");
-        let e = spec(&format!("{base}window = 18446744073709551615\n")).unwrap_err().to_string();
-        assert!(e.contains("t.toml:3:10: window:") && e.contains("for `seed` and `seeds` only"), "{e}");
-    }
 }

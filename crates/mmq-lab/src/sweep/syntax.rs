@@ -116,32 +116,7 @@ pub(super) const META: [&str; 8] =
     ["name", "description", "seeds", "seed", "curve", "settings", "beyond", "part"];
 
 /// A TOML table with the places of its keys and values.
-pub(super) type Table = BTreeMap<Spanned<String>, Spanned<Raw>>;
-
-/// A value of a spec's table as read: any TOML value, or an integer above 2^63 − 1 (alone
-/// or in a list), which a TOML value cannot hold but a master seed can be (`seed`,
-/// `seeds` go up to 2^64 − 1, as `mmq run --seed` does).
-#[derive(Clone, Debug, Deserialize)]
-#[serde(untagged)]
-pub(super) enum Raw {
-    Value(toml::Value),
-    Unsigned(u64),
-    Unsigneds(Vec<u64>),
-}
-
-/// `value` as a TOML value; an integer above 2^63 − 1 is refused at `name` (only seeds
-/// take one).
-fn plain(src: &Source<'_>, name: &str, value: Spanned<Raw>) -> Result<Spanned<toml::Value>, LabError> {
-    let span = value.span();
-    match value.into_inner() {
-        Raw::Value(v) => Ok(Spanned::new(span, v)),
-        Raw::Unsigned(_) | Raw::Unsigneds(_) => Err(src.error(
-            span.start,
-            name,
-            "an integer above 9223372036854775807 (2^63 − 1) is accepted for `seed` and `seeds` only",
-        )),
-    }
-}
+pub(super) type Table = BTreeMap<Spanned<String>, Spanned<toml::Value>>;
 
 /// What a spec, or one part of it, gives: cell fields, learner settings and seeds.
 #[derive(Clone, Debug)]
@@ -176,7 +151,6 @@ impl Given {
         };
         for (key, value) in doc {
             if !META.contains(&key.get_ref().as_str()) {
-                let value = plain(src, key.get_ref(), value)?;
                 g.field(src, key, value)?;
             }
         }
@@ -193,26 +167,16 @@ impl Given {
                 |e: toml::de::Error, name: &str| src.error(span.start, name, e.message().trim().to_string());
             match key.get_ref().as_str() {
                 "seeds" => {
-                    let seeds = match value.into_inner() {
-                        Raw::Value(v) => SeedsField::deserialize(v).map_err(|e| at(e, "seeds"))?,
-                        Raw::Unsigned(n) => SeedsField::Count(n),
-                        Raw::Unsigneds(v) => SeedsField::List(v),
-                    };
+                    let seeds = SeedsField::deserialize(value.into_inner()).map_err(|e| at(e, "seeds"))?;
                     g.seeds = Some(Spanned::new(span, seeds));
                 }
                 "seed" => {
-                    let seed = match value.into_inner() {
-                        Raw::Unsigned(n) => n,
-                        raw => {
-                            let v = plain(src, "seed", Spanned::new(span.clone(), raw))?.into_inner();
-                            u64::deserialize(v).map_err(|e| at(e, "seed"))?
-                        }
-                    };
+                    let seed = u64::deserialize(value.into_inner()).map_err(|e| at(e, "seed"))?;
                     g.seed = Some(Spanned::new(span, seed));
                 }
                 "settings" if g.prefix == "settings" => {
-                    let value = plain(src, "settings", value)?.into_inner();
-                    let table = toml::Table::deserialize(value).map_err(|e| at(e, "settings"))?;
+                    let table =
+                        toml::Table::deserialize(value.into_inner()).map_err(|e| at(e, "settings"))?;
                     for (k, v) in table {
                         g.settings.insert(k, Spanned::new(span.clone(), v));
                     }
@@ -224,10 +188,7 @@ impl Given {
                         "a part gives cell fields, `seeds`, `seed` and [part.settings] only; give this at the top of the spec (with the settings in [settings])",
                     ));
                 }
-                _ => {
-                    let value = plain(src, key.get_ref(), value)?;
-                    g.field(src, key, value)?
-                }
+                _ => g.field(src, key, value)?,
             }
         }
         Ok(g)
