@@ -182,8 +182,8 @@ pub struct RunArgs {
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     pub live: Option<String>,
     /// With --live: seconds of simulated time per second while a client watches
-    /// (1: real time; 0: no pacing). With no client the run is never slowed.
-    #[arg(long, value_name = "X", default_value_t = 1.0)]
+    /// (1: real time; 0: no pacing). With no client the run is never slowed. Needs --live.
+    #[arg(long, value_name = "X", default_value_t = 1.0, requires = "live")]
     pub live_speed: f64,
     /// Output directory.
     #[arg(long, short, default_value = "runs/latest")]
@@ -208,6 +208,9 @@ pub enum WorldAction {
     Show {
         /// World file, or a shipped world's name.
         file: PathBuf,
+        /// Print the world file itself (TOML), to copy into a file of your own and edit.
+        #[arg(long)]
+        toml: bool,
     },
 }
 

@@ -16,6 +16,8 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
         EnvChoice::Robot => vec![EnvKind::Robot],
         EnvChoice::Both => vec![EnvKind::Grid, EnvKind::Robot],
     };
+    // One process writes into the folder at a time.
+    let _lock = mmq_lab::lock::lock_out_dir(&a.out)?;
     let req = PaperRequest {
         fig: a.fig,
         envs,
@@ -23,7 +25,7 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
         seeds: a.seeds,
         steps: a.steps,
         seed: a.seed,
-        out: a.out,
+        out: a.out.clone(),
         specs: a.specs,
     };
     let done = mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet))?;

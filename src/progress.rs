@@ -1,7 +1,7 @@
 //! Progress of long work, fed by the lab's progress callback: a bar (indicatif) on a
 //! terminal; plain lines every few seconds when stderr is a file or a pipe (a batch job's
-//! log), with steps done of the total, the rate in steps/s and the time left; nothing with
-//! `-q`.
+//! log), with steps done of the total, the rate in steps/s and the time left; with `-q`,
+//! only notices.
 
 use std::io::IsTerminal;
 use std::sync::{PoisonError, RwLock, RwLockReadGuard};
@@ -20,8 +20,8 @@ enum Mode {
     Lines(LineProgress),
 }
 
-/// Progress as one bar (or plain lines) per piece of work, and notices on stderr; nothing
-/// but errors with `-q`. The reports take it as their `mmq_report::Progress`; the commands
+/// Progress as one bar (or plain lines) per piece of work, and notices on stderr (such as
+/// files of an earlier output being replaced); with `-q`, notices and errors only. The reports take it as their `mmq_report::Progress`; the commands
 /// feed it from the lab's progress callback.
 #[derive(Debug)]
 pub struct Bars {
@@ -82,10 +82,9 @@ impl mmq_report::Progress for Bars {
         }
     }
 
-    /// A line on stderr, with the bar out of the way; nothing when quiet.
+    /// A line on stderr, with the bar out of the way; shown also when quiet.
     fn notice(&self, text: &str) {
         match self.current().as_ref() {
-            _ if self.quiet => {}
             Some(Mode::Bar(pb)) => pb.suspend(|| eprintln!("{text}")),
             _ => eprintln!("{text}"),
         }

@@ -39,8 +39,9 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
         }
         if out.extension().is_none_or(|e| e != "svg") {
             return Err(crate::input_error(format!(
-                "--render {}: only .svg output is supported",
-                out.display()
+                "--render {}: give the SVG's path, e.g. --render {}; a PNG of the same name is written next to it",
+                out.display(),
+                out.with_extension("svg").display()
             )));
         }
         let [svg, png] = mmq_log::render(&log, out, window)?;

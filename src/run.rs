@@ -82,7 +82,8 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let progress = |n: u64| pb.advance(n);
     let ctl = Control { stop, progress: &progress };
     let claimed = |replaced: usize| {
-        if replaced > 0 && !a.quiet {
+        // Said also under -q: files are removed.
+        if replaced > 0 {
             eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
         }
     };

@@ -52,6 +52,7 @@ pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
             pb.begin(*steps, "sweep");
             println!("{}", say::sweep_planned(plan, shard, *jobs_total, *jobs_here, *done, *baselines));
         }
+        SweepEvent::JobDone { .. } if a.quiet => {}
         SweepEvent::JobDone { cell, cell_index, seed, finished, of, wall_s } => {
             let axes = say::cell_axes(plan, *cell_index);
             pb.notice(&format!("[{finished}/{of}] cell {cell} ({axes}) seed {seed}: {wall_s:.2} s"));

@@ -30,8 +30,15 @@ pub fn world(action: WorldAction) -> Result<(), Failure> {
             }
             Ok(())
         }
-        WorldAction::Show { file } => {
+        WorldAction::Show { file, toml: false } => {
             print!("{}", mmq_report::text::world(&World::load(&file)?));
+            Ok(())
+        }
+        WorldAction::Show { file, toml: true } => {
+            // The file as read (a shipped world's own text): valid TOML that loads as
+            // this world.
+            let w = World::load(&file)?;
+            print!("{}{}", w.source, if w.source.ends_with('\n') { "" } else { "\n" });
             Ok(())
         }
     }

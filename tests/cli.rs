@@ -64,6 +64,11 @@ mod bad_input {
             assert_eq!(o.status.code(), Some(2), "{flag}: {err}");
             assert!(err.contains("--record"), "{err}");
         }
+        // So would a live view's speed without the live view.
+        let o = mmq(&["run", "--live-speed", "2", "--steps", "10"]);
+        let (_, err) = text(&o);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains("--live"), "{err}");
     }
 
     /// An empty replay window is refused, not drawn as an empty picture.
@@ -303,6 +308,34 @@ mod world {
         assert!(out.contains("↑←") || out.contains("←↑"), "{out}");
     }
 
+    /// `world show --toml` prints a world file: saved and loaded, it is the same world.
+    #[test]
+    fn show_toml_is_a_world_file() {
+        let d = tempfile::tempdir().unwrap();
+        for name in ["paper-9x9", "maze-15x15"] {
+            let o = mmq(&["world", "show", name, "--toml"]);
+            let (out, err) = text(&o);
+            assert!(o.status.success(), "{err}");
+            let copy = d.path().join(format!("my-{name}.toml"));
+            std::fs::write(&copy, &out).unwrap();
+            let (mine, shipped) =
+                (mmq_core::World::load(&copy).unwrap(), mmq_core::World::load(name).unwrap());
+            assert_eq!(
+                (mine.width, mine.height, &mine.cells),
+                (shipped.width, shipped.height, &shipped.cells)
+            );
+            assert_eq!(
+                (mine.goal, mine.respawn, mine.rewards),
+                (shipped.goal, shipped.respawn, shipped.rewards)
+            );
+            assert_eq!(
+                (mine.cell_size, mine.start, &mine.robot),
+                (shipped.cell_size, shipped.start, &shipped.robot)
+            );
+            assert!(mmq(&["world", "check", &copy.to_string_lossy()]).status.success());
+        }
+    }
+
     #[test]
     fn learners_lists_names_first() {
         let (out, _) = text(&mmq(&["learners"]));
@@ -455,7 +488,10 @@ mod anywhere {
         };
         assert!(o("3").status.success());
         assert!(out.join("q_seed2.npy").is_file());
-        assert!(o("1").status.success());
+        // The replacement is said, also under -q.
+        let again = o("1");
+        assert!(again.status.success());
+        assert!(text(&again).1.contains("replacing the previous run's"), "{:?}", text(&again));
         assert!(out.join("q_seed0.npy").is_file());
         assert!(!out.join("q_seed2.npy").exists(), "a stale table from the first run is left");
         std::fs::write(out.join("notes.txt"), "mine").unwrap();

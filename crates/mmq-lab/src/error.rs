@@ -75,6 +75,17 @@ pub enum LabError {
         /// One of the foreign files.
         example: String,
     },
+    /// An output folder another process is writing into (its lock, `mmq_lab::lock`).
+    #[error(
+        "{path}: another mmq process{} is writing into this folder; wait for it to end (or stop it), or choose another folder for `out`",
+        pid.map_or(String::new(), |p| format!(" (PID {p})"))
+    )]
+    OutDirLocked {
+        /// The folder.
+        path: PathBuf,
+        /// The holder's process id, when its lock file says it.
+        pid: Option<u32>,
+    },
     /// Every seed's results were written, but some seeds lost output they should have
     /// written (a recording); the summary marks the run incomplete.
     #[error("{}; the summary in {} marks the run incomplete", lost.join("; "), dir.display())]
@@ -130,6 +141,7 @@ impl LabError {
                 | LabError::Setting { .. }
                 | LabError::EnvBuild(_)
                 | LabError::OutDirInUse { .. }
+                | LabError::OutDirLocked { .. }
                 | LabError::Threads { .. }
                 | LabError::Pool { .. }
                 | LabError::Learner(LearnError::InvalidParam { .. } | LearnError::TooLarge { .. })
@@ -148,6 +160,7 @@ impl LabError {
                 | LabError::Config { .. }
                 | LabError::Spec { .. }
                 | LabError::OutDirInUse { .. }
+                | LabError::OutDirLocked { .. }
                 | LabError::EnvBuild(_)
                 | LabError::Threads { .. }
                 | LabError::Recording(_)

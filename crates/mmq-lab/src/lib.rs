@@ -12,6 +12,7 @@ pub mod error;
 pub mod exec;
 pub mod fields;
 pub mod format;
+pub mod lock;
 pub mod output;
 pub mod paper;
 pub mod record;

@@ -62,6 +62,10 @@ pub fn claim_out_dir(dir: &Path, kind: OutKind) -> Result<usize, LabError> {
     for entry in std::fs::read_dir(dir).map_err(io)? {
         let entry = entry.map_err(io)?;
         let name = entry.file_name().to_string_lossy().into_owned();
+        if crate::lock::is_lock_file(&name) {
+            // The folder's lock (held by the caller): neither an output nor foreign.
+            continue;
+        }
         let is_file = entry.file_type().map_err(io)?.is_file();
         if !is_file || !kind.owns(&name) {
             return Err(LabError::OutDirInUse {
@@ -243,9 +247,11 @@ impl RunWritten {
     }
 }
 
-/// A whole run into `dir`, as `mmq run` and Python's `mmq.run` do it: claims the folder
-/// (`claimed` hears how many files of an earlier run it replaces), writes `config.toml`,
-/// runs every seed with `observers`, then writes the results, the summary last.
+/// A whole run into `dir`, as `mmq run` and Python's `mmq.run` do it: takes the folder's
+/// lock ([`crate::lock`]: a folder another process writes into is refused) and claims
+/// the folder (`claimed` hears how many files of an earlier run it replaces), writes
+/// `config.toml`, runs every seed with `observers`, then writes the results, the summary
+/// last, and gives the lock back.
 pub fn run_into(
     dir: &Path,
     cfg: &RunConfig,
@@ -254,6 +260,7 @@ pub fn run_into(
     ctl: crate::runner::Control<'_>,
     claimed: &dyn Fn(usize),
 ) -> Result<RunWritten, LabError> {
+    let _lock = crate::lock::lock_out_dir(dir)?;
     claimed(claim_out_dir(dir, OutKind::Run)?);
     write_config(dir, cfg)?;
     let outcome = crate::runner::run_all(cfg, world, observers, ctl)?;

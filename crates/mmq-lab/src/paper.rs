@@ -160,10 +160,21 @@ pub fn run_groups(cfgs: Vec<RunConfig>, ctl: Control<'_>) -> Result<Vec<Group>, 
     Ok(groups)
 }
 
-/// Total decision steps `run_groups` will take for `cfgs` (for progress bars).
+/// Total decision steps `run_groups` will take for `cfgs` (for progress bars): every
+/// setting's seeds, and each distinct undelayed baseline once, as the executor runs it
+/// (settings that differ only in their learner or delay share one).
 pub fn total_steps(cfgs: &[RunConfig]) -> u64 {
-    // Upper bound: each setting plus one baseline per setting and seed.
-    cfgs.iter().map(|c| 2 * c.steps * c.seeds).sum()
+    let mut baselines = std::collections::HashSet::new();
+    let mut total = 0u64;
+    for c in cfgs {
+        total = total.saturating_add(c.steps.saturating_mul(c.seeds));
+        for seed in c.seed_list() {
+            if baselines.insert(crate::exec::BaselineKey::of(c, seed)) {
+                total = total.saturating_add(c.steps);
+            }
+        }
+    }
+    total
 }
 
 /// The paper's budget, which the shipped figure specs state: steps per seed and steps
@@ -347,4 +358,32 @@ pub fn last_steps(
     run_seed(&cfg, &world, &dist, seed, Some(Box::new(observer)), ctl, memory_limit(1))?;
     let q = out.lock().unwrap_or_else(|p| p.into_inner());
     Ok(q.iter().copied().collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+    use super::*;
+
+    /// The progress total is the steps the runs report: two settings that differ only in
+    /// their delay share their seeds' baselines, which run (and count) once.
+    #[test]
+    fn the_progress_total_counts_shared_baselines_once() {
+        let world =
+            std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-3x3.toml"));
+        let base = RunConfig { world, steps: 2000, seeds: 2, window: 500, ..RunConfig::default() };
+        let cfgs = vec![
+            RunConfig { delay: "const:2".into(), ..base.clone() },
+            RunConfig { delay: "poisson:3".into(), ..base },
+        ];
+        let done = AtomicU64::new(0);
+        let progress = |n: u64| {
+            done.fetch_add(n, Ordering::Relaxed);
+        };
+        let stop = AtomicBool::new(false);
+        run_groups(cfgs.clone(), Control { stop: &stop, progress: &progress }).unwrap();
+        assert_eq!(total_steps(&cfgs), 2 * 2 * 2000 + 2 * 2000);
+        assert_eq!(total_steps(&cfgs), done.load(Ordering::Relaxed));
+    }
 }

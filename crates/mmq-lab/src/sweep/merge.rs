@@ -56,6 +56,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
             message: "the output directory holds another sweep; choose an empty --out".into(),
         });
     }
+    // One process writes into `out` at a time (`crate::lock`).
+    let _lock = crate::lock::lock_out_dir(out)?;
     let mut have: Vec<Option<Metrics>> = load_results(out, plan);
     let mut copied = 0;
     for d in dirs.iter().filter(|d| d.as_path() != out) {

@@ -204,13 +204,23 @@ pub struct Shard {
 }
 
 impl Shard {
-    /// Parses `K/N` with 1 ≤ K ≤ N.
+    /// Parses `K/N` with 1 ≤ K ≤ N ≤ [`super::MAX_JOBS`] (more shards than a sweep can
+    /// have jobs would be empty).
     pub fn parse(s: &str) -> Result<Shard, LabError> {
-        let bad = || LabError::param("shard", s, "use K/N with 1 <= K <= N, e.g. 2/8 (Slurm: --array=1-N)");
+        let bad = || {
+            LabError::param(
+                "shard",
+                s,
+                &format!(
+                    "use K/N with 1 <= K <= N <= {} (the most jobs a sweep has), e.g. 2/8 (Slurm: --array=1-N)",
+                    super::MAX_JOBS
+                ),
+            )
+        };
         let (k, n) = s.split_once('/').ok_or_else(bad)?;
         let index: u64 = k.trim().parse().map_err(|_| bad())?;
         let count: u64 = n.trim().parse().map_err(|_| bad())?;
-        if index == 0 || index > count {
+        if index == 0 || index > count || count > super::MAX_JOBS as u64 {
             return Err(bad());
         }
         Ok(Shard { index, count })
@@ -238,7 +248,8 @@ mod tests {
         for j in 0..50 {
             assert_eq!(shards.iter().filter(|s| s.contains(j)).count(), 1);
         }
-        for bad in ["0/3", "4/3", "3", "a/b", "1/0"] {
+        assert!(Shard::parse("1000000/1000000").is_ok());
+        for bad in ["0/3", "4/3", "3", "a/b", "1/0", "1/1000001", "1/18446744073709551615"] {
             assert!(Shard::parse(bad).is_err(), "{bad}");
         }
     }

@@ -96,7 +96,8 @@ pub(super) fn curve_points(run: &Trajectory, steps: u64, points: u64) -> Vec<(St
 
 /// Runs the jobs of `shard` (all without) that `out` does not hold yet, writing each
 /// result as it finishes, then `results.csv` and `sweep.json`. Stops early (leaving
-/// every finished result) when `ctl.stop` is set.
+/// every finished result) when `ctl.stop` is set. Holds `out`'s lock ([`crate::lock`])
+/// throughout: a folder another process writes into is refused.
 pub fn run_sweep(
     spec: &SweepSpec,
     out: &Path,
@@ -106,6 +107,7 @@ pub fn run_sweep(
 ) -> Result<SweepOutcome, LabError> {
     let plan = &spec.plan;
     let spec_file = spec.file.display().to_string();
+    let _lock = crate::lock::lock_out_dir(out)?;
     write_atomic(&out.join("spec.toml"), spec.text.as_bytes())?;
     // The manifest first, so that a directory killed at once is still recognisable.
     finish_dir(out, plan, &spec_file, shard)?;
