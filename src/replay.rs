@@ -24,7 +24,7 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
         eprintln!("{}", mmq_report::terminal::read_stopped(&a.file, stop));
     }
     if summary {
-        out(format_args!("{}", mmq_log::summary(&log)))?;
+        say(format_args!("{}", mmq_log::summary(&log)))?;
     }
     if let Some(out) = &a.render {
         let window = match (a.from, a.to) {
@@ -45,14 +45,14 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
             )));
         }
         let [svg, png] = mmq_log::render(&log, out, window)?;
-        out(format_args!("wrote {} and {}\n", svg.display(), png.display()))?;
+        say(format_args!("wrote {} and {}\n", svg.display(), png.display()))?;
     }
     if a.verify {
         let v = verify_in_temp_dir(&log, stop)?;
         match mmq_report::terminal::verdict(&v) {
             // Exit 130 (the stop flag is up): nothing concluded.
             (text, _) if matches!(v, Verdict::Interrupted { .. }) => eprintln!("{text}"),
-            (text, true) => out(format_args!("{text}\n"))?,
+            (text, true) => say(format_args!("{text}\n"))?,
             (text, false) => {
                 return Err(Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("{text}") });
             }
@@ -62,7 +62,7 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
 }
 
 /// Writes to stdout; a reader that went away (`| head`) ends the output quietly.
-fn out(text: std::fmt::Arguments<'_>) -> Result<(), Failure> {
+fn say(text: std::fmt::Arguments<'_>) -> Result<(), Failure> {
     use std::io::Write;
     let mut o = std::io::stdout().lock();
     match o.write_fmt(text).and_then(|()| o.flush()) {

@@ -367,7 +367,7 @@ pub(crate) fn stop_server(handle: WebSocketServerHandle, addr: SocketAddr) {
     use std::future::Future;
     // The SDK's wait, polled here until it is done or the grace has passed; dropping it
     // then drops the shutdown handle, which aborts the client tasks still running.
-    let mut wait = std::pin::pin!(handle.stop().wait());
+    let mut wait = Box::pin(handle.stop().wait());
     let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
     let deadline = Instant::now() + STOP_GRACE;
     while wait.as_mut().poll(&mut cx).is_pending() && Instant::now() < deadline {

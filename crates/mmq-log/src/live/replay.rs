@@ -64,7 +64,7 @@ struct Shared {
     cat: Catalog,
     slots: HashMap<ChannelId, usize>,
     /// Last message sent of each latched slot: what a new subscriber gets.
-    latched: Mutex<Vec<Option<(u64, Vec<u8>)>>>,
+    latched: Mutex<Vec<Option<super::Latched>>>,
     autoplay: bool,
     player: Mutex<Player>,
 }
