@@ -181,6 +181,10 @@ pub struct RunArgs {
     /// port; default 127.0.0.1:8765, loopback only unless another address is named.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     pub live: Option<String>,
+    /// With --live: wait for the first viewer before running, at most SECONDS (no number:
+    /// until one connects or Ctrl-C).
+    #[arg(long, value_name = "SECONDS", num_args = 0..=1, requires = "live")]
+    pub live_wait: Option<Option<f64>>,
     /// With --live: seconds of simulated time per second while a client watches
     /// (1: real time; 0: no pacing). With no client the run is never slowed. Needs --live.
     #[arg(long, value_name = "X", default_value_t = 1.0, requires = "live")]
@@ -235,9 +239,13 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub to: Option<u64>,
     /// Play the file to the Foxglove app (WebSocket) on ADDR (HOST:PORT or a port; default
-    /// 127.0.0.1:8765) until Ctrl-C; the app's timeline plays, pauses, seeks, sets the speed.
+    /// 127.0.0.1:8765) until Ctrl-C: at 1x from the first subscription; the app's timeline
+    /// plays, pauses, seeks, sets the speed.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]
     pub serve: Option<String>,
+    /// With --serve: start paused, waiting for the app's play command.
+    #[arg(long, requires = "serve")]
+    pub paused: bool,
 }
 
 /// Flags of `mmq sweep` (see docs/sweeps.md).

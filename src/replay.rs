@@ -11,9 +11,10 @@ use crate::cli::ReplayArgs;
 /// Runs `mmq replay`.
 pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
     if let Some(addr) = &a.serve {
-        crate::live::serve(&a.file, addr, stop)?;
         // Ctrl-C is how serving ends: a success, not an interruption.
-        stop.store(false, Ordering::SeqCst);
+        if crate::live::serve(&a.file, addr, a.paused, stop)? {
+            stop.store(false, Ordering::SeqCst);
+        }
         return Ok(());
     }
     let log = read_recording(&a.file)?;
@@ -23,7 +24,7 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
         eprintln!("{}", mmq_report::terminal::read_stopped(&a.file, stop));
     }
     if summary {
-        print!("{}", mmq_log::summary(&log));
+        say(format_args!("{}", mmq_log::summary(&log)))?;
     }
     if let Some(out) = &a.render {
         let window = match (a.from, a.to) {
@@ -45,18 +46,28 @@ pub fn replay(a: ReplayArgs, stop: &AtomicBool) -> Result<(), Failure> {
             )));
         }
         let [svg, png] = mmq_log::render(&log, out, window)?;
-        println!("wrote {} and {}", svg.display(), png.display());
+        say(format_args!("wrote {} and {}\n", svg.display(), png.display()))?;
     }
     if a.verify {
         let v = verify_in_temp_dir(&log, stop)?;
         match mmq_report::terminal::verdict(&v) {
             // Exit 130 (the stop flag is up): nothing concluded.
             (text, _) if matches!(v, Verdict::Interrupted { .. }) => eprintln!("{text}"),
-            (text, true) => println!("{text}"),
+            (text, true) => say(format_args!("{text}\n"))?,
             (text, false) => {
                 return Err(Failure { code: crate::exit::RUNTIME, error: anyhow::anyhow!("{text}") });
             }
         }
     }
     Ok(())
+}
+
+/// Writes to stdout; a reader that went away (`| head`) ends the output quietly.
+fn say(text: std::fmt::Arguments<'_>) -> Result<(), Failure> {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    match o.write_fmt(text).and_then(|()| o.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::from(e)),
+        _ => Ok(()),
+    }
 }

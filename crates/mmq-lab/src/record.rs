@@ -81,6 +81,11 @@ impl LiveRun {
         self.server.addr()
     }
 
+    /// Waits for the first client (see `LiveServer::wait_for_client`).
+    pub fn wait_for_client(&self, timeout: Option<std::time::Duration>, stop: &AtomicBool) -> bool {
+        self.server.wait_for_client(timeout, stop)
+    }
+
     /// The observer of `seed` when it is the seed shown: its recorder (if the run
     /// records) with the live view attached, or a live-only recorder.
     pub fn observer(&self, seed: u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> {
@@ -168,8 +173,9 @@ pub fn verify_in_temp_dir(log: &mmq_log::LogContents, stop: &AtomicBool) -> Resu
     verify(log, &scratch, stop)
 }
 
-/// Most decision steps `verify` re-runs (10⁹: minutes to hours of work). A `config.toml`
-/// attachment asking for more is refused before anything runs.
+/// Most decision steps `verify` re-runs (10⁹: minutes to hours of work). A file that
+/// records more is refused before anything runs (the configured horizon may be larger:
+/// an interrupted run holds only its first steps).
 pub const MAX_VERIFY_STEPS: u64 = 1_000_000_000;
 
 /// What `verify` found.
@@ -269,13 +275,6 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> 
     if cfg.record.is_none() {
         return Err(bad("the log's config has no [record] settings".into()));
     }
-    if cfg.steps > MAX_VERIFY_STEPS {
-        return Err(bad(format!(
-            "its config.toml asks for steps = {}; verify re-runs at most {MAX_VERIFY_STEPS} steps \
-             (a damaged or hand-edited file?)",
-            cfg.steps
-        )));
-    }
     // The learner's own run is what the log holds; the baseline and tables are not needed.
     cfg.baseline = false;
     cfg.save_tables = false;
@@ -297,6 +296,20 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> 
     }
     if limit == 0 {
         return Err(bad("the file holds no decision step to verify".into()));
+    }
+    // What the file holds, not the configured horizon (an interrupted run of a huge one).
+    if limit > MAX_VERIFY_STEPS {
+        return Err(bad(format!(
+            "the file records {limit} steps; verify re-runs at most {MAX_VERIFY_STEPS} steps \
+             (a damaged or hand-edited file?)"
+        )));
+    }
+    // A damaged chunk in the middle is not a cut end: what follows it cannot be compared.
+    if !log.problems.is_empty() {
+        return Err(bad(format!(
+            "the file is damaged, so it cannot be verified: {}",
+            log.problems.join("; ")
+        )));
     }
     if !scratch.is_dir() {
         return Err(LabError::Io {

@@ -140,14 +140,30 @@ fn verify_refuses_absurd_runs_names_paths_and_stops() {
     let (_, log) = recorded_grid(dir.path(), 2_000);
     let scratch = tempfile::tempdir().unwrap();
     let stop = AtomicBool::new(false);
+    // A file that says it records more steps than verify re-runs (its config and end
+    // record edited) is refused before anything runs.
     let mut absurd = log.clone();
     let cfg = absurd.attachments.iter_mut().find(|a| a.name == "config.toml").unwrap();
     let text = String::from_utf8(cfg.data.clone()).unwrap().replace("steps = 2000", "steps = 10000000000");
     assert!(text.contains("steps = 10000000000"), "{text}");
     cfg.data = text.into_bytes();
+    absurd.metadata.get_mut("end").unwrap().insert("steps".into(), "10000000000".into());
     let e = verify(&absurd, scratch.path(), &stop).unwrap_err();
     let msg = e.to_string();
-    assert!(e.is_input_error() && msg.contains("steps = 10000000000") && msg.contains("at most"), "{msg}");
+    assert!(
+        e.is_input_error() && msg.contains("records 10000000000 steps") && msg.contains("at most"),
+        "{msg}"
+    );
+    // A file with a problem inside (here: a message count that disagrees with its
+    // statistics) is reported as damaged, not checked as far as it goes.
+    let mut damaged = log.clone();
+    damaged.complete = false;
+    damaged.problems.push("the chunk at byte 1234 cannot be read (damaged chunk: crc mismatch)".into());
+    let e = verify(&damaged, scratch.path(), &stop).unwrap_err();
+    assert!(
+        e.is_input_error() && e.to_string().contains("damaged") && e.to_string().contains("byte 1234"),
+        "{e}"
+    );
     let missing = scratch.path().join("no-such-folder");
     let msg = verify(&log, &missing, &stop).unwrap_err().to_string();
     assert!(msg.contains(&missing.display().to_string()), "{msg}");
@@ -296,5 +312,76 @@ fn a_closed_gate_skips_steps_and_the_resume_point_is_exact() {
         assert_eq!(r.emitted_total.to_bits(), emitted.to_bits(), "{env:?}");
         assert_eq!(r.delivered_total.to_bits(), delivered.to_bits(), "{env:?}");
         assert_eq!(r.emissions, emissions, "{env:?}");
+    }
+}
+
+/// Raises a stop flag after a number of steps, as a Ctrl-C would.
+struct StopAfter {
+    rec: Box<dyn mmq_core::Observer + Send>,
+    at: u64,
+    stop: &'static AtomicBool,
+}
+
+impl mmq_core::Observer for StopAfter {
+    fn trace_period_s(&self) -> Option<f64> {
+        self.rec.trace_period_s()
+    }
+    fn ledger_history(&self) -> bool {
+        self.rec.ledger_history()
+    }
+    fn on_start(&mut self, info: &mmq_core::RunInfo<'_>, s: mmq_core::State, t: f64) {
+        self.rec.on_start(info, s, t);
+    }
+    fn on_step(&mut self, r: &mmq_core::StepRecord<'_>) {
+        self.rec.on_step(r);
+        if r.t + 1 == self.at {
+            self.stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        }
+    }
+    fn on_tables(&mut self, t: u64, s: f64, v: &[f64], q: &[f64]) {
+        self.rec.on_tables(t, s, v, q);
+    }
+    fn on_finish(&mut self, t: u64, complete: bool) {
+        self.rec.on_finish(t, complete);
+    }
+}
+
+/// A run with a horizon far past what verify re-runs (2·10⁹ steps), stopped as by Ctrl-C
+/// after 3,000 steps: its file holds 3,000 steps, and those verify.
+#[test]
+fn an_interrupted_run_with_a_huge_horizon_verifies_what_it_holds() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = RunConfig {
+        world: world(),
+        env: EnvKind::Grid,
+        steps: 2_000_000_000,
+        seed: 4,
+        baseline: false,
+        save_tables: false,
+        eval_steps: 0,
+        record: Some(RecordSettings::default()),
+        ..RunConfig::default()
+    };
+    let w = cfg.load_world().unwrap();
+    let stop: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
+    let recorders = recorder_factory(&cfg, dir.path());
+    let factory = |seed: u64| {
+        recorders(seed).map(|r| {
+            r.map(|rec| Box::new(StopAfter { rec, at: 3_000, stop }) as Box<dyn mmq_core::Observer + Send>)
+        })
+    };
+    let out = run_all(&cfg, &w, &factory, Control { stop, progress: &|_| {} }).unwrap();
+    assert!(out.interrupted);
+    let log = mmq_log::read_log(trajectory_path(dir.path(), 4)).unwrap();
+    assert!(log.complete, "{:?} {:?}", log.stop, log.problems);
+    let scratch = tempfile::tempdir().unwrap();
+    let keep_going = AtomicBool::new(false);
+    match verify(&log, scratch.path(), &keep_going).unwrap() {
+        Verdict::Identical { decisions, steps, .. } => {
+            assert_eq!(decisions, log.decisions.len());
+            assert_eq!(steps, log.decisions.last().unwrap().msg.t + 1);
+            assert!((3_000..3_100).contains(&steps), "{steps}");
+        }
+        v => panic!("an interrupted run of a huge horizon: {v:?}"),
     }
 }

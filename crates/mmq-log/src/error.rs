@@ -41,6 +41,14 @@ pub enum LogError {
         /// Why (missing attachment, or the world error).
         message: String,
     },
+    /// A log with nothing usable for what was asked (no message to play).
+    #[error("{}: {message}", path.display())]
+    Unreadable {
+        /// The file.
+        path: PathBuf,
+        /// Why, and what can be done.
+        message: String,
+    },
     /// A live-view address that is not one.
     #[error("live view address `{addr}`: {reason}")]
     LiveAddress {

@@ -1,21 +1,23 @@
-//! Reading logs back: [`read_log`] streams an MCAP file record by record with the `mcap`
-//! crate's linear reader and keeps whatever is readable. A truncated or damaged file gives
-//! the messages before the damage and a [`ReadStop`] saying where reading stopped, never
-//! a panic.
+//! Reading logs back: [`read_log`] streams an MCAP file record by record through the
+//! hardened walker of `reader/walk.rs` (bounded reads, checked lengths, checked chunks)
+//! and keeps whatever is readable. A truncated file gives the messages before the cut and
+//! a [`ReadStop`] saying where reading stopped; a damaged chunk is skipped and named in
+//! [`LogContents::problems`]; never a panic.
 
 use std::collections::{BTreeMap, HashMap};
-use std::fs::File;
-use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 
 use mcap::records::Record;
-use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use mmq_core::{World, WorldError};
 use serde::de::DeserializeOwned;
 
 use crate::error::LogError;
 use crate::messages::{self as m, topics};
 use crate::recorder::{DIGEST_START, digest_message};
+
+pub(crate) mod walk;
+
+use walk::{Inner, Item, SchemaRec, Stop, Walker};
 
 /// A message with its `log_time` (simulated ns since the start of the run).
 #[derive(Clone, Debug, PartialEq)]
@@ -137,8 +139,11 @@ pub struct LogContents {
     pub complete: bool,
     /// Where reading stopped early, if it did.
     pub stop: Option<ReadStop>,
-    /// What is wrong with a file that reads to its end: message counts that disagree with
-    /// its statistics record (a chunk removed or duplicated), payloads that do not decode.
+    /// What is wrong with the file besides a cut end: chunks skipped as damaged (a CRC or
+    /// decompression failure; the chunks after them are read), damaged bytes that ended
+    /// the reading with more of the file after them, and, for a file read to its end,
+    /// message counts that disagree with its statistics record (a chunk removed or
+    /// duplicated) and payloads that do not decode.
     pub problems: Vec<String>,
 }
 
@@ -165,112 +170,48 @@ impl LogContents {
     }
 }
 
-#[derive(Debug)]
-struct SchemaRec {
-    name: String,
-    encoding: String,
-    text: String,
-}
-
 /// Reads a log, keeping what is readable.
 ///
-/// Returns `Err` only when the file cannot be opened or is not an MCAP file at all; a
-/// truncated or damaged file returns its readable prefix with [`LogContents::stop`] set.
-/// Chunks are kept whole or not at all: a chunk that fails to decompress or to match its
-/// CRC ends the reading at its first byte.
+/// Returns `Err` only when the file cannot be opened, is not a regular file, or is not an
+/// MCAP file at all; a truncated or damaged file returns what could be read, with
+/// [`LogContents::stop`] set where reading stopped. Chunks are kept whole or not at all:
+/// a chunk that fails to decompress or to match its CRC is skipped and named in
+/// [`LogContents::problems`], and reading goes on after it. The file is streamed (one
+/// chunk in memory at a time; see `reader/walk.rs`).
 pub fn read_log(path: impl AsRef<Path>) -> Result<LogContents, LogError> {
     let path = path.as_ref();
-    let io_err = |action, source| LogError::Io { path: path.to_path_buf(), action, source };
-    // A FIFO would block the open forever, a device never end: only regular files.
-    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
-        return Err(io_err(
-            "read the log",
-            std::io::Error::other(
-                "not a regular file (a FIFO, device or folder); give the path of an MCAP file",
-            ),
-        ));
-    }
-    let file = File::open(path).map_err(|e| io_err("open the log", e))?;
-    let file_len = file.metadata().map_err(|e| io_err("read the log", e))?.len();
-    let mut input = BufReader::with_capacity(1 << 16, file);
-    // A file that does not start like an MCAP file is not a damaged log but another file.
-    let head = input.fill_buf().map_err(|e| io_err("read the log", e))?;
-    let n = head.len().min(mcap::MAGIC.len());
-    if head[..n] != mcap::MAGIC[..n] {
-        return Err(LogError::NotMcap { path: path.to_path_buf() });
-    }
+    let mut walker = Walker::open(path)?;
+    let file_len = walker.file_len();
     let mut out = LogContents { path: path.to_path_buf(), file_len, ..Default::default() };
     let mut st = State::default();
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_emit_chunks(true)
-            .with_record_length_limit(usize::try_from(file_len).unwrap_or(usize::MAX)),
-    );
-    // Offset of the next top-level record: the start magic, then opcode + length + body.
-    let mut offset: u64 = mcap::MAGIC.len() as u64;
-    let mut records_read = 0u64;
     let mut in_data_section = true;
-    let stop_reason = loop {
-        let Some(event) = reader.next_event() else { break None };
-        match event {
-            Ok(LinearReadEvent::ReadRequest(need)) => {
-                let buf = reader.insert(need);
-                let n = loop {
-                    match input.read(buf) {
-                        Ok(n) => break Ok(n),
-                        Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
-                        Err(e) => break Err(e),
-                    }
-                };
-                match n {
-                    Ok(n) => reader.notify_read(n),
-                    Err(e) => return Err(io_err("read the log", e)),
-                }
-            }
-            Ok(LinearReadEvent::Record { opcode, data }) => {
-                let len = 9 + data.len() as u64;
-                let raw = (opcode, data);
-                let result = check_lengths(opcode, data)
-                    .and_then(|()| mcap::parse_record(opcode, data).map_err(|e| e.to_string()))
-                    .and_then(|rec| st.top_level(rec, raw, &mut out, &mut in_data_section));
-                if let Err(reason) = result {
-                    break Some(reason);
-                }
-                offset += len;
-                records_read += 1;
-            }
-            Err(mcap::McapError::BadMagic) if records_read == 0 && offset == mcap::MAGIC.len() as u64 => {
-                return Err(LogError::NotMcap { path: path.to_path_buf() });
-            }
-            Err(mcap::McapError::UnexpectedEof) => {
-                break Some(if records_read == 0 {
-                    "the file ends before its first record".to_string()
-                } else if offset >= file_len {
-                    "the file ends without its summary and end magic (the run was not finished)".to_string()
-                } else {
-                    "the file ends in the middle of a record (truncated)".to_string()
-                });
-            }
-            Err(mcap::McapError::RecordTooLarge { opcode, len: u64::MAX })
-                if opcode == mcap::records::op::CHUNK =>
-            {
-                // The writer gives a chunk its length when it closes it.
-                break Some("the file ends in an unfinished chunk (the run was not finished)".to_string());
-            }
-            Err(e) => break Some(e.to_string()),
+    let stop = loop {
+        match walker.next() {
+            Ok(None) => break None,
+            Ok(Some((offset, item))) => st.top_level(offset, item, &mut out, &mut in_data_section),
+            Err(Stop::Io(e)) => return Err(e),
+            Err(Stop::At { reason, cut }) => break Some((reason, cut)),
         }
     };
-    match stop_reason {
+    out.problems = std::mem::take(&mut st.damaged);
+    match stop {
         None => {
-            out.problems = st.problems(&out);
-            out.complete = out.problems.is_empty();
+            let more = st.problems(&out);
+            out.problems.extend(more);
         }
-        Some(reason) => {
+        Some((reason, cut)) => {
             // A file too short to hold the start magic stops at its first byte.
-            let offset = if file_len < mcap::MAGIC.len() as u64 { 0 } else { offset };
+            let offset = if file_len < mcap::MAGIC.len() as u64 { 0 } else { walker.offset() };
+            if !cut {
+                out.problems.push(format!(
+                    "damaged bytes at byte {offset} of {file_len} ({reason}); the {} bytes after them were not read",
+                    file_len.saturating_sub(offset)
+                ));
+            }
             out.stop = Some(ReadStop { offset, file_len, messages: out.messages, reason });
         }
     }
+    out.complete = out.stop.is_none() && out.problems.is_empty();
     Ok(out)
 }
 
@@ -283,35 +224,35 @@ struct State {
     counts: BTreeMap<u16, u64>,
     /// The file's statistics record (summary section), if it has one.
     stats: Option<mcap::records::Statistics>,
-}
-
-/// A record from inside a chunk, owned until the whole chunk has been checked.
-enum Pending {
-    Schema(u16, SchemaRec),
-    Channel(mcap::records::Channel),
-    Message(mcap::records::MessageHeader, Vec<u8>),
+    /// Chunks skipped as damaged, as problems.
+    damaged: Vec<String>,
 }
 
 impl State {
-    fn top_level(
-        &mut self,
-        rec: Record<'_>,
-        raw: (u8, &[u8]),
-        out: &mut LogContents,
-        data: &mut bool,
-    ) -> Result<(), String> {
-        match rec {
-            Record::Chunk { .. } => {
-                for p in read_chunk(raw)? {
+    fn top_level(&mut self, offset: u64, item: Item, out: &mut LogContents, data: &mut bool) {
+        let rec = match item {
+            Item::Chunk(inner) => {
+                for p in inner {
                     match p {
-                        Pending::Schema(id, s) => {
+                        Inner::Schema(id, s) => {
                             self.schemas.insert(id, s);
                         }
-                        Pending::Channel(c) => self.channel(c, out),
-                        Pending::Message(h, d) => self.message(h, &d, out),
+                        Inner::Channel(c) => self.channel(c, out),
+                        Inner::Message(h, d) => self.message(h, &d, out),
                     }
                 }
+                return;
             }
+            Item::Damaged { reason, start_ns, end_ns } => {
+                self.damaged.push(format!(
+                    "the chunk at byte {offset} (log times {start_ns} to {end_ns} ns) cannot be read ({reason}); \
+                     its messages are missing, the chunks after it were read"
+                ));
+                return;
+            }
+            Item::Other(rec) => rec,
+        };
+        match rec {
             Record::Schema { header, data: bytes } if *data => {
                 let text = String::from_utf8_lossy(&bytes).into_owned();
                 self.schemas
@@ -332,7 +273,6 @@ impl State {
             Record::Statistics(s) => self.stats = Some(s),
             _ => {}
         }
-        Ok(())
     }
 
     /// What disagrees in a file read to its end (see [`LogContents::problems`]).
@@ -429,182 +369,4 @@ impl State {
             info.undecodable += 1;
         }
     }
-}
-
-/// Checks that every length prefix inside a record body (strings, byte arrays, maps and
-/// arrays, per the MCAP specification's layout of each opcode) fits in the body, before
-/// the `mcap` crate parses it: the crate reserves a prefix's length before reading, so a
-/// damaged 4-byte length in a 30 KiB file would otherwise allocate 4 GiB (found by
-/// fuzzing; `tests/regressions/mcap_read/`).
-fn check_lengths(opcode: u8, body: &[u8]) -> Result<(), String> {
-    use mcap::records::op;
-    struct Cursor<'a> {
-        rest: &'a [u8],
-        opcode: u8,
-    }
-    impl Cursor<'_> {
-        fn skip(&mut self, n: u64) -> Result<(), String> {
-            match usize::try_from(n).ok().filter(|&n| n <= self.rest.len()) {
-                Some(n) => {
-                    self.rest = &self.rest[n..];
-                    Ok(())
-                }
-                None => Err(format!(
-                    "damaged record (opcode 0x{:02x}): a length of {n} bytes exceeds the {} left in the record",
-                    self.opcode,
-                    self.rest.len()
-                )),
-            }
-        }
-        fn len(&mut self, width: usize) -> Result<u64, String> {
-            if self.rest.len() < width {
-                // Too short for the prefix itself: the parser reports it without allocating.
-                self.rest = &[];
-                return Ok(0);
-            }
-            let mut b = [0u8; 8];
-            b[..width].copy_from_slice(&self.rest[..width]);
-            self.rest = &self.rest[width..];
-            Ok(u64::from_le_bytes(b))
-        }
-        /// A u32- or u64-prefixed run of bytes (string, byte array, map or array).
-        fn prefixed(&mut self, width: usize) -> Result<(), String> {
-            let n = self.len(width)?;
-            self.skip(n)
-        }
-        /// A map of string to string, read as the crate reads it: key-value pairs while
-        /// fewer than the map's byte length were read, so the last pair may run past the
-        /// map (and every prefix is checked against the whole record).
-        fn string_map(&mut self) -> Result<(), String> {
-            let n = self.len(4)?;
-            let start = self.rest.len();
-            while ((start - self.rest.len()) as u64) < n && !self.rest.is_empty() {
-                self.prefixed(4)?;
-                self.prefixed(4)?;
-            }
-            Ok(())
-        }
-    }
-    let mut c = Cursor { rest: body, opcode };
-    let fixed = |c: &mut Cursor<'_>, n: u64| c.skip(n.min(c.rest.len() as u64));
-    match opcode {
-        op::HEADER => {
-            c.prefixed(4)?;
-            c.prefixed(4)
-        }
-        op::SCHEMA => {
-            fixed(&mut c, 2)?;
-            c.prefixed(4)?;
-            c.prefixed(4)?;
-            c.prefixed(4)
-        }
-        op::CHANNEL => {
-            fixed(&mut c, 4)?;
-            c.prefixed(4)?;
-            c.prefixed(4)?;
-            c.string_map()
-        }
-        op::CHUNK => {
-            fixed(&mut c, 28)?;
-            c.prefixed(4)?;
-            c.prefixed(8)
-        }
-        op::MESSAGE_INDEX => {
-            fixed(&mut c, 2)?;
-            c.prefixed(4)
-        }
-        op::CHUNK_INDEX => {
-            fixed(&mut c, 32)?;
-            c.prefixed(4)?;
-            fixed(&mut c, 8)?;
-            c.prefixed(4)
-        }
-        op::ATTACHMENT => {
-            fixed(&mut c, 16)?;
-            c.prefixed(4)?;
-            c.prefixed(4)?;
-            // Data length, data, CRC: the crate slices up to 4 bytes before the end
-            // after the length field, and panics when fewer than 4 bytes follow it.
-            if c.rest.len() < 12 {
-                return Err(format!(
-                    "damaged record (opcode 0x{opcode:02x}): {} bytes left for an attachment's data length and CRC (12 at least)",
-                    c.rest.len()
-                ));
-            }
-            let n = c.len(8)?;
-            c.rest = &c.rest[..c.rest.len() - 4];
-            c.skip(n)
-        }
-        op::ATTACHMENT_INDEX => {
-            fixed(&mut c, 40)?;
-            c.prefixed(4)?;
-            c.prefixed(4)
-        }
-        op::STATISTICS => {
-            fixed(&mut c, 42)?;
-            c.prefixed(4)
-        }
-        op::METADATA => {
-            c.prefixed(4)?;
-            c.string_map()
-        }
-        op::METADATA_INDEX => {
-            fixed(&mut c, 16)?;
-            c.prefixed(4)
-        }
-        _ => Ok(()),
-    }
-}
-
-/// Largest uncompressed chunk accepted: a damaged size field must not make the reader
-/// allocate without bound.
-fn chunk_limit(compressed_len: usize) -> usize {
-    compressed_len.saturating_mul(64).clamp(64 << 20, 1 << 30)
-}
-
-/// Decodes one chunk record (`opcode`, body) with the crate's own linear reader, which
-/// checks the chunk's CRC before yielding anything from it and bounds every buffer.
-fn read_chunk((opcode, body): (u8, &[u8])) -> Result<Vec<Pending>, String> {
-    let mut bytes = Vec::with_capacity(9 + body.len());
-    bytes.push(opcode);
-    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(body);
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default()
-            .with_skip_start_magic(true)
-            .with_skip_end_magic(true)
-            .with_prevalidate_chunk_crcs(true)
-            .with_record_length_limit(chunk_limit(body.len())),
-    );
-    let mut input: &[u8] = &bytes;
-    let mut pending = Vec::new();
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| format!("damaged chunk: {e}"))? {
-            LinearReadEvent::ReadRequest(need) => {
-                let n = need.min(input.len());
-                reader.insert(n).copy_from_slice(&input[..n]);
-                reader.notify_read(n);
-                input = &input[n..];
-            }
-            LinearReadEvent::Record { opcode, data } => {
-                check_lengths(opcode, data).map_err(|e| format!("damaged chunk: {e}"))?;
-                match mcap::parse_record(opcode, data).map_err(|e| format!("damaged chunk: {e}"))? {
-                    Record::Schema { header, data } => pending.push(Pending::Schema(
-                        header.id,
-                        SchemaRec {
-                            name: header.name,
-                            encoding: header.encoding,
-                            text: String::from_utf8_lossy(&data).into_owned(),
-                        },
-                    )),
-                    Record::Channel(c) => pending.push(Pending::Channel(c)),
-                    Record::Message { header, data } => {
-                        pending.push(Pending::Message(header, data.into_owned()))
-                    }
-                    _ => {}
-                }
-            }
-        }
-    }
-    Ok(pending)
 }

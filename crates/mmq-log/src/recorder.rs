@@ -15,8 +15,15 @@
 //!   `/robot/pose_estimate`; the first one with `/viz/robot_estimate`), and
 //!   `/robot/fix` for each localisation fix received;
 //! - at the step's end: `/rl/reward/emitted` (if a non-zero reward was emitted),
-//!   `/rl/reward/delivered` (if anything was delivered), `/rl/teleport` and a fresh
-//!   `/viz/arena` + `/viz/robot` (after an action in the goal).
+//!   `/rl/reward/delivered` (if anything was delivered), `/rl/teleport` (after an action
+//!   in the goal).
+//!
+//! The static scenes (`/viz/arena`, `/viz/robot`, and `/viz/robot_estimate` with the
+//! first estimate) are written once, at the run's start: nothing in them changes during
+//! a run, and a viewer keeps a scene entity until it is deleted (Foxglove's player, and
+//! `mmq replay --serve`, send a topic's last message before the time it seeks to; the
+//! live view sends it to every new subscriber). A recording's size so follows its
+//! decisions, not its goals × the map's size.
 //!
 //! The file is flushed (the open chunk closed and written out) every `flush_every_steps`
 //! steps and every `flush_interval` of wall-clock time, so a killed run leaves a readable
@@ -234,10 +241,10 @@ struct Run {
     world: World,
     grid: bool,
     action_names: Vec<String>,
-    /// Serialized `/viz/arena` and `/viz/robot` messages (republished unchanged).
+    /// Serialized `/viz/arena` and `/viz/robot` messages (written once).
     arena_json: Vec<u8>,
     robot_json: Vec<u8>,
-    /// Serialized `/viz/robot_estimate` (republished unchanged).
+    /// Serialized `/viz/robot_estimate` (written once, with the first estimate).
     estimate_json: Vec<u8>,
     /// A pose estimate has been written (the estimate's scene is then written with the
     /// others).
@@ -504,7 +511,7 @@ impl McapRecorder {
         }
     }
 
-    /// Writes a scene: bytes serialized once and republished unchanged during the run.
+    /// Writes a scene: bytes serialized once (the live view keeps them for new subscribers).
     fn write_bytes(&mut self, ch: Ch, log_time: u64, bytes: &[u8]) {
         let i = ch as usize;
         if let Some(live) = self.live.as_mut() {

@@ -95,6 +95,9 @@ impl fmt::Display for LogSummary {
             None => writeln!(f, "  file:       DAMAGED: {}", self.problems.join("; "))?,
             Some(s) => writeln!(f, "  file:       INCOMPLETE: {s}")?,
         }
+        if self.stop.is_some() && !self.problems.is_empty() {
+            writeln!(f, "  damaged:    {}", self.problems.join("; "))?;
+        }
         let fact = |k: &str| self.run.get(k).map_or("?", String::as_str);
         writeln!(
             f,

@@ -20,13 +20,13 @@
 //!
 //! [`replay`] serves a recorded file instead, with playback control.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::net::{IpAddr, Ipv4Addr, SocketAddr};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, Weak};
 use std::time::{Duration, Instant};
 
-use foxglove::websocket::{Capability, ChannelView, Client, ServerListener};
+use foxglove::websocket::{Capability, ChannelView, Client, ClientId, ServerListener, Status};
 use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema, WebSocketServerHandle};
 use mmq_core::StepGate;
 
@@ -34,6 +34,7 @@ use crate::error::LogError;
 use crate::messages::{CHANNELS, LATCHED, LOG_CHANNEL, topics};
 use crate::writer::PoseJson;
 
+mod catalog;
 pub mod replay;
 
 /// Simulated time between two poses sent to live clients (10 Hz), whatever rate the
@@ -67,6 +68,22 @@ pub fn parse_addr(text: &str) -> Result<SocketAddr, LogError> {
     })
 }
 
+/// The warning for an address that is not loopback-only: every interface (`0.0.0.0`,
+/// `[::]`) or another machine's view of this one lets anyone on the network watch, and
+/// for a served file (`playback`) also pause, seek and change its speed; `None` for a
+/// loopback address.
+pub fn exposure_warning(addr: SocketAddr, playback: bool) -> Option<String> {
+    if addr.ip().is_loopback() {
+        return None;
+    }
+    let reach = if addr.ip().is_unspecified() { "every network interface" } else { "a network interface" };
+    let control = if playback { " and control its playback (play, pause, seek, speed)" } else { "" };
+    Some(format!(
+        "warning: listening on {addr}, {reach}: anyone who can reach this machine can watch{control}, \
+         with no password; use 127.0.0.1:PORT (the default) to keep it on this machine"
+    ))
+}
+
 /// How the live view is served.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LiveConfig {
@@ -77,12 +94,16 @@ pub struct LiveConfig {
     pub speed: f64,
     /// Server name shown by the Foxglove app.
     pub name: String,
+    /// Messages queued per client ([`CLIENT_BACKLOG`]): a client that does not read
+    /// loses the oldest beyond this many, and is disconnected when as many control
+    /// messages (time updates) wait for it.
+    pub backlog: usize,
 }
 
 impl LiveConfig {
     /// Loopback on Foxglove's usual port, in real time.
     pub fn new(name: impl Into<String>) -> Self {
-        Self { addr: DEFAULT_ADDR, speed: 1.0, name: name.into() }
+        Self { addr: DEFAULT_ADDR, speed: 1.0, name: name.into(), backlog: CLIENT_BACKLOG }
     }
 }
 
@@ -165,11 +186,12 @@ impl Shared {
     }
 }
 
-/// Connect/disconnect counting and latched re-sends.
-struct Listener(Arc<Shared>);
+/// Connect/disconnect counting, latched re-sends, the backlog's status message.
+struct Listener(Arc<Shared>, Greeted, usize);
 
 impl ServerListener for Listener {
     fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
+        self.1.greet(&client, self.2);
         let Some(&slot) = self.0.slots.get(&channel.id()) else { return };
         let Some(sink) = client.sink_id() else { return };
         let last = self.0.latched.lock().ok().and_then(|l| l.get(slot).cloned().flatten());
@@ -203,18 +225,45 @@ impl std::fmt::Debug for LiveServer {
     }
 }
 
+/// Messages queued per client (and control messages, such as time updates, per client):
+/// a client that does not read loses the oldest data messages once its queue holds this
+/// many, and is disconnected (with a status saying why) once its control queue does, so
+/// that it costs at most this many messages of memory. 1024 by default in the SDK: with
+/// the arena or heat maps of a large map, hundreds of megabytes per stalled client.
+pub const CLIENT_BACKLOG: usize = 256;
+
+/// Clients told how the view drops messages (each once, at its first subscription).
+#[derive(Debug, Default)]
+pub(crate) struct Greeted(Mutex<HashSet<ClientId>>);
+
+impl Greeted {
+    /// Tells `client`, once, that a client falling more than `backlog` messages behind
+    /// loses the oldest ones (a status message the app shows).
+    pub(crate) fn greet(&self, client: &Client, backlog: usize) {
+        let new = self.0.lock().is_ok_and(|mut g| g.insert(client.id()));
+        if new {
+            client.send_status(Status::info(format!(
+                "mmq: at most {backlog} messages wait for each viewer; a viewer that falls further behind \
+                 loses the oldest of them (the arena and the heat maps are re-sent on subscribing again), \
+                 and one that stops reading is disconnected"
+            )));
+        }
+    }
+}
+
 /// Starts a server on `addr` (port 0: a free one) with the given capabilities.
 fn start_server(
     ctx: &Arc<Context>,
-    addr: SocketAddr,
-    name: &str,
+    config: &LiveConfig,
     capabilities: Vec<Capability>,
     listener: Arc<dyn ServerListener>,
     time_range: Option<(u64, u64)>,
 ) -> Result<WebSocketServerHandle, LogError> {
+    let addr = config.addr;
     let mut server = ctx
         .websocket_server()
-        .name(name)
+        .message_backlog_size(config.backlog.max(1))
+        .name(&config.name)
         .capabilities(capabilities)
         .listener(listener)
         .bind(addr.ip().to_string(), addr.port());
@@ -247,8 +296,8 @@ impl LiveServer {
         let shared = Arc::new(
             Shared::new(&ctx).map_err(|message| LogError::LiveServer { addr: config.addr, message })?,
         );
-        let listener = Arc::new(Listener(Arc::clone(&shared)));
-        let handle = start_server(&ctx, config.addr, &config.name, vec![Capability::Time], listener, None)?;
+        let listener = Arc::new(Listener(Arc::clone(&shared), Greeted::default(), config.backlog));
+        let handle = start_server(&ctx, config, vec![Capability::Time], listener, None)?;
         let weak = Arc::downgrade(&shared);
         std::thread::Builder::new().name("mmq-live-clock".into()).spawn(move || run_clock(weak)).map_err(
             |e| LogError::LiveServer { addr: config.addr, message: format!("cannot start a thread: {e}") },
@@ -265,6 +314,19 @@ impl LiveServer {
     /// Clients connected now.
     pub fn clients(&self) -> usize {
         self.shared.clients.count()
+    }
+
+    /// Waits until a client is connected, `timeout` has passed (`None`: no limit) or
+    /// `stop` is raised; returns whether a client is connected.
+    pub fn wait_for_client(&self, timeout: Option<Duration>, stop: &AtomicBool) -> bool {
+        let deadline = timeout.map(|t| Instant::now() + t);
+        while !self.shared.clients.is_open() {
+            if stop.load(Ordering::Relaxed) || deadline.is_some_and(|d| Instant::now() >= d) {
+                return false;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        true
     }
 
     /// A tap for a recorder (one per run shown).
@@ -284,15 +346,35 @@ impl LiveServer {
         }
     }
 
-    /// Stops the server: clients are disconnected, the port is freed. Waits for it.
+    /// Stops the server: clients are disconnected (one that does not read is dropped
+    /// after [`STOP_GRACE`]), the port is freed. Waits for it.
     pub fn stop(self) {
         self.shared.ticking.store(false, Ordering::Relaxed);
         let h = self.handle.lock().ok().and_then(|mut h| h.take());
         if let Some(h) = h {
-            h.stop().wait_blocking();
-            wait_port_free(self.addr);
+            stop_server(h, self.addr);
         }
     }
+}
+
+/// How long stopping a server waits for its clients to take their close message: a
+/// client that does not read (its socket full) would otherwise hold the process forever.
+pub const STOP_GRACE: Duration = Duration::from_millis(500);
+
+/// Stops a server: waits at most [`STOP_GRACE`] for the clients to be closed, then drops
+/// the ones left (their tasks are aborted), and waits until the port is free.
+pub(crate) fn stop_server(handle: WebSocketServerHandle, addr: SocketAddr) {
+    use std::future::Future;
+    // The SDK's wait, polled here until it is done or the grace has passed; dropping it
+    // then drops the shutdown handle, which aborts the client tasks still running.
+    let mut wait = Box::pin(handle.stop().wait());
+    let mut cx = std::task::Context::from_waker(std::task::Waker::noop());
+    let deadline = Instant::now() + STOP_GRACE;
+    while wait.as_mut().poll(&mut cx).is_pending() && Instant::now() < deadline {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    drop(wait);
+    wait_port_free(addr);
 }
 
 /// The server's accepting task closes its socket shortly after the client tasks end;
@@ -421,10 +503,9 @@ impl LiveTap {
         &self.scratch
     }
 
-    /// Sends a message serialized once and republished unchanged during the run (the
-    /// scenes): a latched slot keeps its first bytes and only moves their time (no copy,
-    /// no comparison: the arena is republished after every goal); sent when someone
-    /// listens and the topic's thinning lets it through.
+    /// Sends a message serialized once (the static scenes): a latched slot keeps its
+    /// first bytes, which every new subscriber gets; sent now when someone listens and
+    /// the topic's thinning lets it through.
     pub(crate) fn send_unchanged(&mut self, slot: usize, log_time: u64, bytes: &[u8]) {
         if self.shared.latched_slot[slot]
             && let Ok(mut l) = self.shared.latched.lock()

@@ -1,12 +1,18 @@
 //! [`serve_file`]: plays a recorded MCAP file to the Foxglove app over the WebSocket
 //! protocol, with playback control (play, pause, seek, speed) from the app's timeline.
 //!
-//! The file's messages are loaded once (in log-time order), and a player sends them at
-//! their log time scaled by the chosen speed. Playback starts paused at the first
-//! message; a seek jumps to the first message at or after the time asked, first sending
-//! the last message of every latched topic up to that time (the arena, the robot's body,
-//! the heat maps), which every new subscriber also gets. A file that the reader can only
-//! partly read plays up to where it stops.
+//! The file is read through the hardened reader (`reader/walk.rs`) and streamed: one
+//! pass builds an index of its chunks (offsets, times, latched topics; see
+//! `catalog.rs`), then a player reads the messages a chunk at a time and sends them at
+//! their log time scaled by the chosen speed. Memory stays bounded whatever the file's
+//! size; a damaged chunk is skipped, a file that can only partly be read plays up to
+//! where it stops, and a file with nothing to play is an error.
+//!
+//! Playback starts by itself at the first subscription (a viewer without playback
+//! control, such as Lichtblick, plays the file), unless [`ServeOptions::paused`] asks to
+//! wait for the app's play command. A seek jumps to the first message at or after the
+//! time asked, first sending the last message of every latched topic up to that time
+//! (the arena, the robot's body, the heat maps), which every new subscriber also gets.
 
 use std::collections::HashMap;
 use std::path::Path;
@@ -18,57 +24,52 @@ use foxglove::websocket::{
     Capability, ChannelView, Client, PlaybackCommand, PlaybackControlRequest, PlaybackState, PlaybackStatus,
     ServerListener,
 };
-use foxglove::{ChannelId, Context, PartialMetadata, RawChannel, Schema};
+use foxglove::{ChannelId, Context, PartialMetadata, WebSocketServerHandle};
 
-use super::{LiveConfig, start_server};
+use super::catalog::{Catalog, CatalogError, Cursor, Msg};
+use super::{Greeted, LiveConfig, start_server, stop_server};
 use crate::error::LogError;
-use crate::messages::LATCHED;
 
-/// One message of the file.
-struct Msg {
-    channel: usize,
-    log_time: u64,
-    data: Vec<u8>,
+/// How a file is served.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ServeOptions {
+    /// Wait for the app's play command instead of playing at the first subscription.
+    pub paused: bool,
 }
+
+/// Most messages sent in one turn of the player (control requests wait no longer).
+const BATCH: usize = 10_000;
 
 /// The player's position and mode.
 #[derive(Debug)]
 struct Player {
     status: PlaybackStatus,
     speed: f32,
-    /// Index of the next message to send.
-    next: usize,
     /// Simulated time shown, ns.
     current: u64,
     /// Pacing reference: (wall clock, log time) when playing (re)started.
     anchor: Option<(Instant, u64)>,
-    /// A seek happened: latched topics must be re-sent before playing on.
-    reseed: bool,
+    /// A seek to this time waits for the player.
+    seek: Option<u64>,
+    /// The app sent a playback command (no autoplay then).
+    commanded: bool,
+    /// Playback started by itself: the state is to be told to the clients.
+    announce: bool,
+    /// When the last time update was sent (at most one per [`super::LIVE_MIN_GAP`]:
+    /// they go on the clients' control queue).
+    time_sent: Option<Instant>,
 }
 
 struct Shared {
-    /// The SDK context the channels and the server belong to (kept alive with them).
-    _ctx: Arc<Context>,
-    channels: Vec<Arc<RawChannel>>,
+    cat: Catalog,
     slots: HashMap<ChannelId, usize>,
-    latched: Vec<bool>,
-    messages: Vec<Msg>,
-    range: (u64, u64),
+    /// Last message sent of each latched slot: what a new subscriber gets.
+    latched: Mutex<Vec<Option<super::Latched>>>,
+    autoplay: bool,
     player: Mutex<Player>,
 }
 
 impl Shared {
-    /// Index of the first message at or after `t`.
-    fn index_at(&self, t: u64) -> usize {
-        self.messages.partition_point(|m| m.log_time < t)
-    }
-
-    /// The last message of channel `slot` at or before time `t`.
-    fn latched_at(&self, slot: usize, t: u64) -> Option<&Msg> {
-        let upto = self.messages.partition_point(|m| m.log_time <= t);
-        self.messages[..upto].iter().rev().find(|m| m.channel == slot)
-    }
-
     fn state(&self, p: &Player, did_seek: bool, request_id: Option<String>) -> PlaybackState {
         PlaybackState {
             current_time: p.current,
@@ -78,38 +79,55 @@ impl Shared {
             request_id,
         }
     }
+
+    /// Sends a message to every subscriber, keeping it when its topic is latched.
+    fn send(&self, (slot, log_time, data): Msg) {
+        self.cat.channels[slot].log_with_meta(&data, PartialMetadata { log_time: Some(log_time) });
+        if self.cat.latched(slot)
+            && let Ok(mut l) = self.latched.lock()
+        {
+            l[slot] = Some((log_time, data));
+        }
+    }
 }
 
-struct Listener(Arc<Shared>);
+struct Listener(Arc<Shared>, Greeted, usize);
 
 impl ServerListener for Listener {
     fn on_subscribe(&self, client: Client, channel: ChannelView<'_>) {
+        self.1.greet(&client, self.2);
         let s = &self.0;
         let Some(&slot) = s.slots.get(&channel.id()) else { return };
         let Some(sink) = client.sink_id() else { return };
-        if !s.latched[slot] {
-            return;
-        }
-        let now = s.player.lock().map(|p| p.current).unwrap_or(s.range.0);
-        if let Some(m) = s.latched_at(slot, now) {
-            s.channels[slot].log_with_meta_to_sink(
-                &m.data,
-                PartialMetadata { log_time: Some(m.log_time) },
+        let last = s.latched.lock().ok().and_then(|l| l.get(slot).cloned().flatten());
+        if let Some((log_time, data)) = last {
+            s.cat.channels[slot].log_with_meta_to_sink(
+                &data,
+                PartialMetadata { log_time: Some(log_time) },
                 Some(sink),
             );
+        }
+        if s.autoplay
+            && let Ok(mut p) = s.player.lock()
+            && !p.commanded
+            && p.status == PlaybackStatus::Paused
+        {
+            p.status = PlaybackStatus::Playing;
+            p.anchor = None;
+            p.announce = true;
         }
     }
 
     fn on_playback_control_request(&self, request: PlaybackControlRequest) -> Option<PlaybackState> {
         let s = &self.0;
         let mut p = s.player.lock().ok()?;
+        p.commanded = true;
         let did_seek = request.seek_time.is_some();
         if let Some(t) = request.seek_time {
-            let t = t.clamp(s.range.0, s.range.1);
-            p.next = s.index_at(t);
+            let t = t.clamp(s.cat.range.0, s.cat.range.1);
+            p.seek = Some(t);
             p.current = t;
             p.anchor = None;
-            p.reseed = true;
             if p.status == PlaybackStatus::Ended {
                 p.status = PlaybackStatus::Paused;
             }
@@ -130,57 +148,12 @@ impl ServerListener for Listener {
     }
 }
 
-/// Loads the messages of `path` in log-time order, with a channel per (topic, schema).
-fn load(ctx: &Arc<Context>, path: &Path) -> Result<(Vec<Arc<RawChannel>>, Vec<Msg>), LogError> {
-    let bytes = std::fs::read(path).map_err(|source| LogError::Io {
-        path: path.to_path_buf(),
-        action: "read the log",
-        source,
-    })?;
-    if !bytes.starts_with(mcap::MAGIC) {
-        return Err(LogError::NotMcap { path: path.to_path_buf() });
-    }
-    let mut channels: Vec<Arc<RawChannel>> = Vec::new();
-    let mut by_id: HashMap<u16, usize> = HashMap::new();
-    let mut messages = Vec::new();
-    let stream = mcap::MessageStream::new(&bytes).map_err(|source| LogError::Mcap {
-        path: path.to_path_buf(),
-        action: "read the log",
-        source,
-    })?;
-    for m in stream {
-        // A damaged tail: play what came before it.
-        let Ok(m) = m else { break };
-        let slot = match by_id.get(&m.channel.id) {
-            Some(&s) => s,
-            None => {
-                let mut b = ctx
-                    .channel_builder(m.channel.topic.clone())
-                    .message_encoding(m.channel.message_encoding.clone());
-                if let Some(sc) = &m.channel.schema {
-                    b = b.schema(Schema::new(sc.name.clone(), sc.encoding.clone(), sc.data.to_vec()));
-                }
-                let ch = b.build_raw().map_err(|e| LogError::NoWorld {
-                    path: path.to_path_buf(),
-                    message: format!("cannot serve topic {}: {e}", m.channel.topic),
-                })?;
-                channels.push(ch);
-                by_id.insert(m.channel.id, channels.len() - 1);
-                channels.len() - 1
-            }
-        };
-        messages.push(Msg { channel: slot, log_time: m.log_time, data: m.data.into_owned() });
-    }
-    // Stable: messages of one time keep their file order.
-    messages.sort_by_key(|m| m.log_time);
-    Ok((channels, messages))
-}
-
 /// A file being served; [`ReplayServer::run`] plays it until `stop`.
 pub struct ReplayServer {
     shared: Arc<Shared>,
-    handle: Option<foxglove::WebSocketServerHandle>,
+    handle: Option<WebSocketServerHandle>,
     addr: std::net::SocketAddr,
+    _ctx: Arc<Context>,
 }
 
 impl std::fmt::Debug for ReplayServer {
@@ -190,45 +163,54 @@ impl std::fmt::Debug for ReplayServer {
 }
 
 /// Starts serving `path` (see the module documentation); `config.speed` is the initial
-/// playback speed (0 is taken as 1).
-pub fn serve_file(path: &Path, config: &LiveConfig) -> Result<ReplayServer, LogError> {
+/// playback speed (0 is taken as 1). Returns `Ok(None)` when `stop` was raised while the
+/// file was being indexed.
+pub fn serve_file(
+    path: &Path,
+    config: &LiveConfig,
+    options: ServeOptions,
+    stop: &AtomicBool,
+) -> Result<Option<ReplayServer>, LogError> {
     let ctx = Context::new();
-    let (channels, messages) = load(&ctx, path)?;
-    let range = match (messages.first(), messages.last()) {
-        (Some(a), Some(b)) => (a.log_time, b.log_time),
-        _ => (0, 0),
+    let cat = match Catalog::build(&ctx, path, stop) {
+        Ok(c) => c,
+        Err(CatalogError::Interrupted) => return Ok(None),
+        Err(CatalogError::Log(e)) => return Err(e),
     };
-    let slots = channels.iter().enumerate().map(|(i, c)| (c.id(), i)).collect();
-    let latched = channels.iter().map(|c| LATCHED.contains(&c.topic())).collect();
+    let range = cat.range;
+    let mut latched = vec![None; cat.channels.len()];
+    for (slot, t, data) in cat.latched_at(range.0)? {
+        latched[slot] = Some((t, data));
+    }
+    let slots = cat.channels.iter().enumerate().map(|(i, c)| (c.id(), i)).collect();
     let speed = if config.speed > 0.0 { config.speed as f32 } else { 1.0 };
     let player = Player {
         status: PlaybackStatus::Paused,
         speed,
-        next: 0,
         current: range.0,
         anchor: None,
-        reseed: false,
+        seek: None,
+        commanded: false,
+        announce: false,
+        time_sent: None,
     };
     let shared = Arc::new(Shared {
-        _ctx: Arc::clone(&ctx),
-        channels,
+        cat,
         slots,
-        latched,
-        messages,
-        range,
+        latched: Mutex::new(latched),
+        autoplay: !options.paused,
         player: Mutex::new(player),
     });
-    let listener = Arc::new(Listener(Arc::clone(&shared)));
+    let listener = Arc::new(Listener(Arc::clone(&shared), Greeted::default(), config.backlog));
     let handle = start_server(
         &ctx,
-        config.addr,
-        &config.name,
+        config,
         vec![Capability::PlaybackControl, Capability::Time],
         listener,
         Some(range),
     )?;
     let addr = std::net::SocketAddr::new(config.addr.ip(), handle.port());
-    Ok(ReplayServer { shared, handle: Some(handle), addr })
+    Ok(Some(ReplayServer { shared, handle: Some(handle), addr, _ctx: ctx }))
 }
 
 impl ReplayServer {
@@ -237,42 +219,61 @@ impl ReplayServer {
         self.addr
     }
 
-    /// Messages in the file.
+    /// Messages in the file (those that can be read).
     pub fn messages(&self) -> usize {
-        self.shared.messages.len()
+        usize::try_from(self.shared.cat.messages).unwrap_or(usize::MAX)
     }
 
     /// First and last log time, ns.
     pub fn time_range(&self) -> (u64, u64) {
-        self.shared.range
+        self.shared.cat.range
     }
 
-    /// Plays on requests from the app until `stop` is set; then stops the server.
-    pub fn run(mut self, stop: &AtomicBool) {
-        let handle = self.handle.take().expect("a server that has not run");
-        while !stop.load(Ordering::Relaxed) {
-            let wait = self.tick(&handle);
-            std::thread::sleep(wait);
-        }
-        handle.stop().wait_blocking();
-        super::wait_port_free(self.addr);
+    /// What of the file cannot be served (damaged chunks skipped, where reading stopped).
+    pub fn warnings(&self) -> &[String] {
+        &self.shared.cat.warnings
     }
 
-    /// Sends what is due; returns how long to wait before the next call.
-    fn tick(&self, handle: &foxglove::WebSocketServerHandle) -> Duration {
+    /// Plays on requests from the app until `stop` is set; then stops the server (a
+    /// client that does not read is dropped, not waited for).
+    pub fn run(mut self, stop: &AtomicBool) -> Result<(), LogError> {
+        let Some(handle) = self.handle.take() else { return Ok(()) };
+        let result = self.play(&handle, stop);
+        stop_server(handle, self.addr);
+        result
+    }
+
+    fn play(&self, handle: &WebSocketServerHandle, stop: &AtomicBool) -> Result<(), LogError> {
         let s = &self.shared;
-        let Ok(mut p) = s.player.lock() else { return Duration::from_millis(10) };
-        if p.reseed {
-            p.reseed = false;
-            for slot in (0..s.channels.len()).filter(|&i| s.latched[i]) {
-                if let Some(m) = s.latched_at(slot, p.current) {
-                    s.channels[slot].log_with_meta(&m.data, PartialMetadata { log_time: Some(m.log_time) });
-                }
+        let mut cursor = Cursor::open(&s.cat, 0, usize::MAX, s.cat.range.0)?;
+        while !stop.load(Ordering::Relaxed) {
+            match self.tick(handle, &mut cursor)? {
+                Some(new) => cursor = new,
+                None => std::thread::sleep(Duration::from_millis(5)),
             }
-            handle.broadcast_time(p.current);
         }
-        if p.status != PlaybackStatus::Playing {
-            return Duration::from_millis(10);
+        Ok(())
+    }
+
+    /// One turn of the player: a seek (returns the new cursor), or the messages due.
+    fn tick(&self, handle: &WebSocketServerHandle, cursor: &mut Cursor) -> Result<Option<Cursor>, LogError> {
+        let s = &self.shared;
+        let seek = s.player.lock().ok().and_then(|mut p| p.seek.take());
+        if let Some(t) = seek {
+            // Disk reads without the lock: control requests are answered meanwhile.
+            let new = Cursor::open(&s.cat, s.cat.block_at(t), usize::MAX, t)?;
+            for m in s.cat.latched_at(t)? {
+                s.send(m);
+            }
+            handle.broadcast_time(t);
+            return Ok(Some(new));
+        }
+        let Ok(mut p) = s.player.lock() else { return Ok(None) };
+        if std::mem::take(&mut p.announce) {
+            handle.broadcast_playback_state(s.state(&p, false, None));
+        }
+        if p.status != PlaybackStatus::Playing || p.seek.is_some() {
+            return Ok(None);
         }
         let now = Instant::now();
         let current = p.current;
@@ -281,24 +282,22 @@ impl ReplayServer {
         // Log time reached by now.
         let reached = t0.saturating_add((now.duration_since(wall0).as_secs_f64() * speed * 1e9) as u64);
         let mut sent = 0;
-        while let Some(m) = s.messages.get(p.next).filter(|m| m.log_time <= reached) {
-            s.channels[m.channel].log_with_meta(&m.data, PartialMetadata { log_time: Some(m.log_time) });
-            p.next += 1;
-            sent += 1;
-            // Yield now and then so control requests get the lock.
-            if sent >= 10_000 {
-                break;
+        while sent < BATCH && cursor.peek_time(&s.cat)?.is_some_and(|t| t <= reached) {
+            if let Some(m) = cursor.next(&s.cat)? {
+                s.send(m);
             }
+            sent += 1;
         }
-        p.current = reached.min(s.range.1).max(p.current);
-        handle.broadcast_time(p.current);
-        if p.next >= s.messages.len() {
+        p.current = reached.min(s.cat.range.1).max(p.current);
+        if p.time_sent.is_none_or(|t| now.duration_since(t) >= super::LIVE_MIN_GAP) {
+            p.time_sent = Some(now);
+            handle.broadcast_time(p.current);
+        }
+        if cursor.peek_time(&s.cat)?.is_none() {
             p.status = PlaybackStatus::Ended;
-            p.current = s.range.1;
+            p.current = s.cat.range.1;
             handle.broadcast_playback_state(s.state(&p, false, None));
-            return Duration::from_millis(10);
         }
-        let due = s.messages[p.next].log_time.saturating_sub(p.current) as f64 * 1e-9 / speed;
-        Duration::from_secs_f64(due.clamp(0.0, 0.02))
+        Ok(None)
     }
 }

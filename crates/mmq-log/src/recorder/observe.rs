@@ -322,7 +322,6 @@ impl McapRecorder {
                         to: center(rec.next_state),
                     }
                 });
-                self.write_scenes(end_ns);
             }
         } else if let Some(p) = rec.trace.poses.last() {
             // Keep the thinning clock moving while skipping.
@@ -389,9 +388,6 @@ impl McapRecorder {
         let end_ns = (rec.t + 1) * self.period_ns;
         if teleport {
             self.heading = 0.0;
-            // The scenes are latched: they keep their time (and go out when their gap
-            // has passed), as in the full path.
-            self.write_scenes(end_ns);
         }
         if self.run.as_ref().is_some_and(|r| rec.next_state < r.world.num_cells()) {
             self.topics[Ch::Tf as usize].count += 1;

@@ -22,8 +22,8 @@ use crate::schemas::check;
 
 /// A message from the server.
 #[derive(Debug)]
-enum In {
-    Json,
+pub(crate) enum In {
+    Json(Value),
     Data { sub: u32, log_time: u64, payload: Vec<u8> },
     Time(u64),
     Playback { status: u8, current: u64, did_seek: bool },
@@ -31,18 +31,18 @@ enum In {
 }
 
 /// A Foxglove WebSocket client.
-struct Client {
-    ws: WebSocket<TcpStream>,
+pub(crate) struct Client {
+    pub(crate) ws: WebSocket<TcpStream>,
     /// Advertised channels by topic: (id, schema).
-    channels: HashMap<String, (u64, Value)>,
+    pub(crate) channels: HashMap<String, (u64, Value)>,
     /// Subscription id → topic.
     subs: HashMap<u32, String>,
     /// The server's `serverInfo`.
-    info: Value,
+    pub(crate) info: Value,
 }
 
 impl Client {
-    fn connect(addr: SocketAddr) -> Self {
+    pub(crate) fn connect(addr: SocketAddr) -> Self {
         let stream = TcpStream::connect(addr).unwrap();
         stream.set_read_timeout(Some(Duration::from_millis(200))).unwrap();
         let mut req = format!("ws://{addr}").into_client_request().unwrap();
@@ -59,7 +59,7 @@ impl Client {
     }
 
     /// The next message, `None` on a read timeout.
-    fn next(&mut self) -> Option<In> {
+    pub(crate) fn next(&mut self) -> Option<In> {
         let msg = match self.ws.read() {
             Ok(m) => m,
             Err(tungstenite::Error::Io(e))
@@ -84,9 +84,9 @@ impl Client {
                     }
                 }
                 if v["op"] == "serverInfo" {
-                    self.info = v;
+                    self.info = v.clone();
                 }
-                In::Json
+                In::Json(v)
             }
             Message::Binary(b) => {
                 let u64_at = |i: usize| u64::from_le_bytes(b[i..i + 8].try_into().unwrap());
@@ -106,7 +106,7 @@ impl Client {
         })
     }
 
-    fn subscribe(&mut self, topics: &[&str]) {
+    pub(crate) fn subscribe(&mut self, topics: &[&str]) {
         let mut subs = Vec::new();
         for t in topics {
             let id = self.subs.len() as u32 + 1;
@@ -120,7 +120,7 @@ impl Client {
 
     /// Reads until `want` returns true for a message, or `secs` pass; returns the
     /// messages read, (topic, log time, JSON), each checked against its schema.
-    fn until(
+    pub(crate) fn until(
         &mut self,
         secs: f64,
         mut want: impl FnMut(&In, Option<&str>) -> bool,
@@ -149,7 +149,7 @@ impl Client {
         (false, got)
     }
 
-    fn playback(&mut self, play: bool, speed: f32, seek: Option<u64>) {
+    pub(crate) fn playback(&mut self, play: bool, speed: f32, seek: Option<u64>) {
         let mut b = vec![3u8, if play { 0 } else { 1 }];
         b.extend_from_slice(&speed.to_le_bytes());
         b.push(u8::from(seek.is_some()));
@@ -160,8 +160,8 @@ impl Client {
     }
 }
 
-fn local(speed: f64) -> LiveConfig {
-    LiveConfig { addr: "127.0.0.1:0".parse().unwrap(), speed, name: "test".into() }
+pub(crate) fn local(speed: f64) -> LiveConfig {
+    LiveConfig { addr: "127.0.0.1:0".parse().unwrap(), speed, ..LiveConfig::new("test") }
 }
 
 /// Runs a live-only grid run of `steps` on its own thread (seed 5, tables every 200
@@ -361,14 +361,16 @@ fn a_served_file_plays_pauses_and_seeks() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("g.mcap");
     common::record_grid(&path, |_| {}, 2000, 9);
-    let server = replay::serve_file(&path, &local(1.0)).unwrap();
+    let never = AtomicBool::new(false);
+    let paused = replay::ServeOptions { paused: true };
+    let server = replay::serve_file(&path, &local(1.0), paused, &never).unwrap().unwrap();
     let (t0, t1) = server.time_range();
     assert_eq!((t0, t1), (0, 2000 * 100_000_000));
     let addr = server.addr();
     let stop = Arc::new(AtomicBool::new(false));
     let player = {
         let stop = stop.clone();
-        std::thread::spawn(move || server.run(&stop))
+        std::thread::spawn(move || server.run(&stop).unwrap())
     };
     let mut c = Client::connect(addr);
     assert!(

@@ -9,4 +9,6 @@ mod render;
 mod robot;
 mod roundtrip;
 mod schemas;
+mod served;
+mod stalled;
 mod truncation;

@@ -1,5 +1,6 @@
-//! Damaged files: a log cut at any byte, or with a corrupted byte, reads back as a prefix
-//! of the full log and says where reading stopped; nothing panics.
+//! Damaged files: a log cut at any byte reads back as a prefix of the full log and says
+//! where reading stopped; a corrupted byte loses at most its chunk (named as a problem)
+//! or stops the reading there; nothing panics.
 
 use mmq_core::seed::splitmix64;
 use mmq_log::{LogContents, McapRecorder, RecorderConfig, read_log};
@@ -64,7 +65,7 @@ fn cut_files_recover_a_prefix_and_say_where_they_stopped() {
 }
 
 #[test]
-fn corrupted_bytes_stop_reading_without_panicking() {
+fn corrupted_bytes_are_noticed_without_panicking() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("full.mcap");
     record_grid(&path, |c| c.flush_every_steps = 100, 1500, 8);
@@ -79,10 +80,18 @@ fn corrupted_bytes_stop_reading_without_panicking() {
         std::fs::write(&bad_path, &bad).unwrap();
         let part = read_log(&bad_path).unwrap_or_else(|e| panic!("flip at {at}: {e}"));
         // A flipped byte in an index or the summary touches no message (the reader does not
-        // need them); anywhere else it stops the reading, after a prefix of the run.
+        // need them); in a chunk's contents it loses that chunk, named as a problem, and
+        // reading goes on; anywhere else it stops the reading, after a prefix of the run.
         if part.stop.is_some() {
             stopped += 1;
             assert_prefix(&part, &full, &format!("flip at {at}"));
+        } else if !part.problems.is_empty() {
+            stopped += 1;
+            assert!(!part.complete && part.messages < full.messages, "flip at {at}: {:?}", part.problems);
+            assert!(part.problems[0].contains("cannot be read"), "flip at {at}: {:?}", part.problems);
+            // What was read is the full log less some decisions, in order.
+            let mut rest = full.decisions.iter();
+            assert!(part.decisions.iter().all(|d| rest.any(|f| f == d)), "flip at {at}");
         } else {
             mmq_log::compare(&full, &part).unwrap_or_else(|m| panic!("flip at {at} went unnoticed: {m}"));
             assert_eq!(part.messages, full.messages);
