@@ -4,7 +4,7 @@
 //! true and believed cell), and the three policies for rewards in flight at a reset.
 
 use mmq_core::Telemetry;
-use mmq_core::{DelayedReward, DelayedStep, Env, SeedTree, Start, Stream};
+use mmq_core::{DelayedReward, DelayedStep, Emission, Env, SeedTree, Start, Stream};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
@@ -159,8 +159,9 @@ impl Channel {
     }
 }
 
-/// The native side of one `mmq/Grid-v0` or `mmq/Robot-v0` environment.
-#[pyclass(module = "mmq._mmq", unsendable)]
+/// The native side of one `mmq/Grid-v0` or `mmq/Robot-v0` environment, usable from any
+/// thread (one call at a time: pyo3's borrow check refuses a second one while a call runs).
+#[pyclass(module = "mmq._mmq")]
 #[derive(Debug)]
 pub struct EnvCore {
     inner: Channel,
@@ -238,23 +239,15 @@ impl EnvCore {
     }
 
     /// One step with everything `info` reports: (next state, delivered, emitted, delay
-    /// in steps or None, event, decision step, simulated time in seconds, deliveries
+    /// in steps or -1 (nothing emitted, or a delay in seconds whose steps are known only
+    /// at delivery), event, decision step, simulated time in seconds, deliveries
     /// [(emission step, delay steps, delay seconds, value)], true cell or None).
     #[allow(clippy::type_complexity)]
     fn step(
         &mut self,
         action: &Bound<'_, PyAny>,
-    ) -> PyResult<(
-        usize,
-        f64,
-        f64,
-        Option<u32>,
-        &'static str,
-        u64,
-        f64,
-        Vec<(u64, u32, f64, f64)>,
-        Option<usize>,
-    )> {
+    ) -> PyResult<(usize, f64, f64, i64, &'static str, u64, f64, Vec<(u64, u32, f64, f64)>, Option<usize>)>
+    {
         let a = action_arg(action, self.inner.ch.env().num_actions())?;
         let st = self.inner.step(a).map_err(env_err)?;
         let deliveries =
@@ -263,7 +256,7 @@ impl EnvCore {
             st.step.state,
             st.delivered,
             st.step.reward,
-            st.delay,
+            st.delay.filter(|&d| d != Emission::PENDING).map_or(-1, i64::from),
             st.step.event.name(),
             st.t,
             self.inner.time_s(),

@@ -3,6 +3,7 @@
 //! the CLI's configuration.
 
 use std::sync::atomic::AtomicBool;
+use std::sync::{Mutex, MutexGuard, PoisonError};
 
 use mmq_core::{Rng, SeedTree, Stream};
 use mmq_lab::config::{EnvKind, RecordSettings};
@@ -55,11 +56,19 @@ pub fn learner_spec(name: &str, settings: Option<&Bound<'_, PyDict>>) -> PyResul
     })
 }
 
-/// A learner driven from Python.
-#[pyclass(module = "mmq._mmq", unsendable)]
+/// The learner behind its mutex, reached through exclusive access (no locking).
+fn owned(m: &mut Mutex<Box<dyn mmq_learn::Learner>>) -> &mut dyn mmq_learn::Learner {
+    m.get_mut().unwrap_or_else(PoisonError::into_inner).as_mut()
+}
+
+/// A learner driven from Python, usable from any thread (one call at a time: pyo3's
+/// borrow check refuses a second one while a call runs).
+#[pyclass(module = "mmq._mmq")]
 #[derive(Debug)]
 pub struct LearnerCore {
-    learner: Box<dyn mmq_learn::Learner>,
+    /// The learner (`Send`, not `Sync`): the mutex makes the class `Sync`; calls that own
+    /// the object (`&mut self`) reach it without locking.
+    learner: Mutex<Box<dyn mmq_learn::Learner>>,
     explore: Rng,
     eval: Rng,
     t: u64,
@@ -69,6 +78,11 @@ pub struct LearnerCore {
 }
 
 impl LearnerCore {
+    /// The learner, locked for a shared call.
+    fn learner(&self) -> MutexGuard<'_, Box<dyn mmq_learn::Learner>> {
+        self.learner.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
     fn check_state(&self, arg: &str, s: i64) -> PyResult<usize> {
         if s < 0 || s as u64 >= self.n_states as u64 {
             return Err(pyo3::exceptions::PyValueError::new_err(format!(
@@ -110,7 +124,7 @@ impl LearnerCore {
         }
         let tree = SeedTree::new(seed_arg(seed)?);
         Ok(LearnerCore {
-            learner,
+            learner: Mutex::new(learner),
             explore: tree.rng(Stream::Explore),
             eval: tree.rng(Stream::Eval),
             t: 0,
@@ -123,7 +137,7 @@ impl LearnerCore {
     /// The ε-greedy action in `state`: (action, model acted on or None, explored).
     fn act(&mut self, state: i64) -> PyResult<(usize, Option<usize>, bool)> {
         let s = self.check_state("state", state)?;
-        let d = self.learner.act(s, &mut self.explore);
+        let d = owned(&mut self.learner).act(s, &mut self.explore);
         Ok((d.action, d.model, d.explored))
     }
 
@@ -150,7 +164,7 @@ impl LearnerCore {
         if !reward.is_finite() {
             return Err(pyo3::exceptions::PyValueError::new_err(format!("reward = {reward} is not finite")));
         }
-        self.learner.observe(&Experience {
+        owned(&mut self.learner).observe(&Experience {
             t: self.t,
             state: s,
             action: action as usize,
@@ -166,26 +180,30 @@ impl LearnerCore {
     /// The greedy action in `state` (ties broken from the evaluation stream).
     fn greedy(&mut self, state: i64) -> PyResult<usize> {
         let s = self.check_state("state", state)?;
-        Ok(self.learner.greedy(s, &mut self.eval))
+        Ok(owned(&mut self.learner).greedy(s, &mut self.eval))
     }
 
     /// The action values the policy acts on in `state`.
     fn action_values<'py>(&mut self, py: Python<'py>, state: i64) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let s = self.check_state("state", state)?;
-        self.learner.action_values(s, &mut self.buf);
+        owned(&mut self.learner).action_values(s, &mut self.buf);
         Ok(PyArray1::from_slice(py, &self.buf))
     }
 
     /// The learner's tables: [(name, shape, flat data in C order)].
     #[allow(clippy::type_complexity)]
     fn tables<'py>(&self, py: Python<'py>) -> Vec<(String, Vec<usize>, Bound<'py, PyArray1<f64>>)> {
-        self.learner.tables().into_iter().map(|t| (t.name, t.shape, PyArray1::from_vec(py, t.data))).collect()
+        self.learner()
+            .tables()
+            .into_iter()
+            .map(|t| (t.name, t.shape, PyArray1::from_vec(py, t.data)))
+            .collect()
     }
 
     /// Learner-specific figures now (its delay estimate among them), under the metric
     /// names of a run's summary.
     fn metrics(&self) -> Vec<(String, f64)> {
-        mmq_lab::summary::diagnostics_entries(&self.learner.diagnostics())
+        mmq_lab::summary::diagnostics_entries(&self.learner().diagnostics())
     }
 
     /// Steps observed so far.
@@ -197,7 +215,7 @@ impl LearnerCore {
     /// The learner's command-line name.
     #[getter]
     fn name(&self) -> &'static str {
-        self.learner.name()
+        self.learner().name()
     }
 }
 

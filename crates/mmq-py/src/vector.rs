@@ -59,8 +59,9 @@ impl Slot {
     }
 }
 
-/// The native side of `mmq.vector.MmqVectorEnv`.
-#[pyclass(module = "mmq._mmq", unsendable)]
+/// The native side of `mmq.vector.MmqVectorEnv`, usable from any thread (one call at a
+/// time: pyo3's borrow check refuses a second one while a step runs).
+#[pyclass(module = "mmq._mmq")]
 #[derive(Debug)]
 pub struct VecCore {
     slots: Vec<Slot>,

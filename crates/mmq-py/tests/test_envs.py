@@ -55,7 +55,7 @@ def test_grid_steps_and_const_delay_by_hand():
     assert delivered == [0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 10.0]
     d = steps[7][3]["deliveries"]
     assert d == [{"t_emit": 5, "delay_steps": 2, "delay_s": pytest.approx(0.2), "value": 10.0}]
-    assert steps[5][3]["delay_steps"] == 2 and steps[4][3]["delay_steps"] is None
+    assert steps[5][3]["delay_steps"] == 2 and steps[4][3]["delay_steps"] == -1
     assert steps[7][3]["t"] == 7
     assert steps[7][3]["sim_time_s"] == pytest.approx(0.8)
     # Conservation: emitted = delivered + in flight.
@@ -164,3 +164,18 @@ def test_optimum_is_exact():
     assert o["gain"] == pytest.approx(10 / 17)
     assert "paper-9x9" in mmq.world_names()
     assert math.isclose(mmq.optimum("paper-3x3")["gain"], 10 / 5)
+
+
+def test_world_names_are_the_shipped_worlds_and_the_docs_list_them():
+    from conftest import ROOT
+
+    names = mmq.world_names()
+    assert sorted(names) == sorted(p.stem for p in (ROOT / "worlds").glob("*.toml"))
+    assert len(names) == 8
+    for name in names:
+        env = gym.make("mmq/Grid-v0", world=name, delay="none")
+        assert env.unwrapped.world_name == name
+    docs = (ROOT / "docs/python.md").read_text()
+    line = next(x for x in docs.splitlines() if x.startswith("| `world` |"))
+    listed = line.split("mmq.world_names()`:")[1].split(")")[0]
+    assert [w.strip() for w in listed.split(",")] == sorted(names)

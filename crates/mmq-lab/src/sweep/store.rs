@@ -39,7 +39,7 @@ pub struct Manifest {
 
 /// One finished job, `cells/<cell-id>/seed-<n>.json`. Metric values are stored as text
 /// in Rust's shortest round-trip form (`NaN`, `inf` included), so they read back bit
-/// for bit.
+/// for bit; the `seed` metric is the job's seed as an integer (exact up to 2^64 − 1).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StoredJob {
@@ -80,7 +80,15 @@ pub(super) fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) ->
         cell: cell.id.clone(),
         seed,
         params: plan.fields.iter().cloned().zip(cell.params.iter().cloned()).collect(),
-        metrics: metrics.iter().map(|(k, v)| (k.clone(), encode(*v))).collect(),
+        metrics: metrics
+            .iter()
+            .map(|(k, v)| {
+                // The seed as the integer it is: an f64 holds seeds exactly only below
+                // 2^53 (where the two texts are the same).
+                let text = if k == "seed" { seed.to_string() } else { encode(*v) };
+                (k.clone(), text)
+            })
+            .collect(),
     };
     let text = serde_json::to_string_pretty(&s).unwrap_or_default() + "\n";
     write_renamed(&plan.job_path(dir, j), text.as_bytes())
@@ -155,4 +163,32 @@ pub(super) fn finish_dir(
         },
     )?;
     Ok((csv_path, rows, here.len(), done))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::plan::PlanCell;
+    use super::*;
+
+    /// The `seed` metric of a job file is its job's seed as an exact integer; below 2^53
+    /// its text is the float's text, as before.
+    #[test]
+    fn seed_metric_is_stored_as_its_integer() {
+        let dir = std::env::temp_dir().join(format!("mmq-store-seed-{}", std::process::id()));
+        let cell = PlanCell { id: "c0".into(), params: vec![], seeds: None };
+        for seed in [7u64, (1 << 53) + 1, u64::MAX] {
+            let plan = Plan::new("s".into(), String::new(), vec![], vec![], vec![seed], vec![cell.clone()]);
+            let metrics: Metrics = [("seed".to_string(), seed as f64), ("steps".into(), 2000.0)].into();
+            write_job(&dir, &plan, 0, &metrics).unwrap();
+            let text = std::fs::read_to_string(plan.job_path(&dir, 0)).unwrap();
+            let stored: StoredJob = serde_json::from_str(&text).unwrap();
+            assert_eq!(stored.metrics["seed"], seed.to_string());
+            assert_eq!(stored.metrics["seed"].parse::<u64>().unwrap(), seed);
+            if seed < 1 << 53 {
+                assert_eq!(stored.metrics["seed"], encode(seed as f64));
+            }
+            assert_eq!(read_job(&dir, &plan, 0), Some(metrics));
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }

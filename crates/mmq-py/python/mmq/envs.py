@@ -147,7 +147,9 @@ class MmqEnv(gym.Env):
         self._state = self._core.reset(self._seed)
         self._elapsed = 0
         info = {
-            "seed": self._seed,
+            # A NumPy uint64: seeds span 0..2**64, which a vector environment's int64
+            # info array would not hold.
+            "seed": np.uint64(self._seed),
             "t": self._core.t,
             "sim_time_s": self._core.time_s,
             "in_flight": self._core.in_flight(),
@@ -162,7 +164,7 @@ class MmqEnv(gym.Env):
         self._elapsed += 1
         info: dict[str, Any] = {
             "emitted": emitted,
-            "delay_steps": delay,
+            "delay_steps": delay,  # -1: nothing emitted (or a delay in seconds)
             "deliveries": [
                 {"t_emit": te, "delay_steps": d, "delay_s": ds, "value": v}
                 for te, d, ds, v in deliveries
