@@ -17,6 +17,7 @@ pub mod paper;
 pub mod record;
 pub mod runner;
 pub mod settings;
+pub mod suite;
 pub mod summary;
 pub mod sweep;
 
