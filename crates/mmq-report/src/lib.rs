@@ -10,6 +10,7 @@
 //! supplies (the command line shows a bar), and each entry point returns what it wrote.
 
 mod comparison;
+pub mod leaderboard;
 pub mod paper;
 pub mod sweep;
 pub mod terminal;
