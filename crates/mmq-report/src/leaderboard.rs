@@ -239,8 +239,10 @@ fn per_task(doc: &mut Doc, entries: &[Entry], tasks: &[String]) -> Result<(), Re
 
 /// The performance profiles: the fraction of runs above each score, with bootstrap bands.
 fn profiles(doc: &mut Doc, entries: &[Entry]) -> Result<(), ReportError> {
-    let top = entries.iter().flat_map(|e| e.scores.iter().flatten()).fold(1.0_f64, |a, &b| a.max(b));
-    let taus: Vec<f64> = (0..=100).map(|i| top * i as f64 / 100.0).collect();
+    // From the lowest score (or 0) to the highest (or the optimum, 1).
+    let all = || entries.iter().flat_map(|e| e.scores.iter().flatten());
+    let (low, top) = (all().fold(0.0_f64, |a, &b| a.min(b)), all().fold(1.0_f64, |a, &b| a.max(b)));
+    let taus: Vec<f64> = (0..=100).map(|i| low + (top - low) * i as f64 / 100.0).collect();
     let mut chart = LineChart::new(
         "Performance profiles",
         "fraction of optimum τ (%)",
