@@ -37,6 +37,8 @@ pub enum Command {
     Paper(PaperArgs),
     /// Run a sweep spec (parameters × seeds), resumable and shardable, or report or merge its outputs.
     Sweep(SweepArgs),
+    /// The benchmark suite: run a learner on a tier, merge shards, write a leaderboard.
+    Suite(crate::suite::SuiteArgs),
 }
 
 /// Which fidelities `mmq paper` runs Figs. 6–12 on.

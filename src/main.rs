@@ -8,6 +8,7 @@ mod paper;
 mod progress;
 mod replay;
 mod run;
+mod suite;
 mod sweep;
 mod world_cmd;
 
@@ -81,6 +82,7 @@ fn dispatch(command: cli::Command, stop: &AtomicBool) -> Result<(), Failure> {
         cli::Command::World(a) => world_cmd::world(a),
         cli::Command::Paper(a) => paper::paper(a, stop),
         cli::Command::Sweep(a) => sweep::sweep(a, stop),
+        cli::Command::Suite(a) => suite::suite(a, stop),
         cli::Command::Replay(a) => replay::replay(a, stop),
         cli::Command::Learners => {
             print!("{}", mmq_report::terminal::learners());

@@ -11,6 +11,7 @@
 
 mod axes;
 mod comparison;
+pub mod leaderboard;
 pub mod paper;
 pub mod sweep;
 pub mod terminal;

@@ -1,0 +1,178 @@
+//! `mmq suite`: run a built-in learner on a tier of the benchmark suite (through the
+//! sweep engine: resumable, shardable), merge shard outputs, and write the leaderboard
+//! of several agents' results (`mmq_report::leaderboard`).
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Instant;
+
+use clap::{Args, Subcommand};
+use mmq_lab::Control;
+use mmq_lab::suite::{Agent, Suite, SuiteRun, results_of_dir, write_results};
+use mmq_lab::sweep::{Shard, SweepEvent, merge, run_sweep};
+use mmq_report::Progress as _;
+use mmq_report::terminal as say;
+
+use crate::Failure;
+use crate::progress::Bars;
+
+/// Flags of `mmq suite` (see docs/suite.md).
+#[derive(Debug, Args)]
+pub struct SuiteArgs {
+    #[command(subcommand)]
+    action: SuiteAction,
+}
+
+#[derive(Debug, Subcommand)]
+enum SuiteAction {
+    /// Run a built-in learner on every task of a tier (resumable; --shard for a cluster)
+    /// and write OUT/results.json.
+    Run {
+        /// The learner (see `mmq learners`).
+        #[arg(long)]
+        learner: String,
+        /// A setting of the learner, KEY=VALUE (repeatable), as for `mmq run`.
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// The tier: lite (minutes) or full (the paper's budget).
+        #[arg(long)]
+        tier: String,
+        /// The suite: a shipped version (v1) or a suite file (TOML, as worlds/suites/v1/suite.toml).
+        #[arg(long, default_value = "v1")]
+        suite: String,
+        /// Output directory; finished seeds there are skipped (resume).
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Run only the K-th of N disjoint parts of the seeds (1 <= K <= N), e.g. 2/8.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// No progress bar and no line per finished seed.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Merge the output directories of shards of one agent and tier into --out and write
+    /// its results.json.
+    Merge {
+        /// Suite output directories.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// The merged directory.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// The leaderboard of several agents' results files (one suite and tier): leaderboard.md,
+    /// CSV files and figures in --out.
+    Report {
+        /// Results files (results.json), one per agent.
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+        /// Where to write the leaderboard.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+}
+
+/// Runs `mmq suite`.
+pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    match a.action {
+        SuiteAction::Run { learner, set, tier, suite, out, shard, quiet } => {
+            let settings = set.iter().map(|kv| setting(kv)).collect::<Result<Vec<_>, _>>()?;
+            let agent = Agent { learner, settings };
+            let suite = if suite.ends_with(".toml") {
+                Suite::load(std::path::Path::new(&suite))?
+            } else {
+                Suite::builtin(&suite)?
+            };
+            run(&suite, &tier, &agent, &out, shard.as_deref(), quiet, stop)
+        }
+        SuiteAction::Merge { dirs, out } => {
+            let first = SuiteRun::read(dirs.first().ok_or_else(|| crate::input_error("give a directory"))?)?;
+            for d in &dirs[1..] {
+                if SuiteRun::read(d)? != first {
+                    return Err(crate::input_error(format!(
+                        "{}: holds another agent, tier or suite than {}; merge the shards of one run",
+                        d.join("suite.json").display(),
+                        dirs[0].display()
+                    )));
+                }
+            }
+            first.claim(&out)?;
+            let (said, missing) = say::merged(dirs.len(), &merge(&dirs, &out)?);
+            println!("{said}");
+            if let Some(m) = missing {
+                eprintln!("{m}");
+            }
+            println!("wrote {}", write_results(&out, &results_of_dir(&out)?)?.display());
+            Ok(())
+        }
+        SuiteAction::Report { files, out } => {
+            let r = mmq_report::leaderboard::report(&files, &out)?;
+            println!(
+                "leaderboard of {} agent(s) on {} task(s): wrote {}",
+                r.agents,
+                r.tasks,
+                r.markdown.display()
+            );
+            Ok(())
+        }
+    }
+}
+
+/// One `--set KEY=VALUE`: the value as TOML (a number, a boolean), else as text.
+fn setting(kv: &str) -> Result<(String, toml::Value), Failure> {
+    match kv.split_once('=').map(|(k, v)| (k.trim(), v.trim())) {
+        Some((k, v)) if !k.is_empty() => Ok((k.to_string(), mmq_core::text_value::value_from_text(v))),
+        _ => Err(crate::input_error(format!("--set `{kv}`: not KEY=VALUE; write e.g. --set max_delay=30"))),
+    }
+}
+
+fn run(
+    suite: &Suite,
+    tier: &str,
+    agent: &Agent,
+    out: &std::path::Path,
+    shard: Option<&str>,
+    quiet: bool,
+    stop: &AtomicBool,
+) -> Result<(), Failure> {
+    let shard = shard.map(Shard::parse).transpose()?;
+    let spec = suite.spec(tier, agent)?;
+    let run = SuiteRun {
+        suite: suite.version.clone(),
+        tier: tier.into(),
+        agent: agent.name(),
+        tasks: suite.task_names(),
+    };
+    run.claim(out)?;
+    let clock = Instant::now();
+    let pb = Bars::new(quiet);
+    let progress = |n: u64| pb.advance(n);
+    let ctl = Control { stop, progress: &progress };
+    let events = |e: &SweepEvent<'_>| match e {
+        SweepEvent::Planned { jobs_total, jobs_here, done, baselines, steps } => {
+            pb.begin(*steps, "suite");
+            println!("{}", say::sweep_planned(&spec.plan, shard, *jobs_total, *jobs_here, *done, *baselines));
+        }
+        SweepEvent::JobDone { cell_index, seed, finished, of, wall_s, .. } => {
+            let task = &run.tasks[*cell_index];
+            pb.notice(&format!("[{finished}/{of}] {task} seed {seed}: {wall_s:.2} s"));
+        }
+    };
+    let outcome = run_sweep(&spec, out, shard, ctl, &events);
+    pb.end();
+    let outcome = outcome?;
+    let results = results_of_dir(out)?;
+    let path = write_results(out, &results)?;
+    println!(
+        "suite {} tier {}, agent {}: ran {} seed(s), skipped {} already finished, {} left ({:.1} s); wrote {}",
+        run.suite,
+        run.tier,
+        run.agent,
+        outcome.ran,
+        outcome.skipped,
+        outcome.left,
+        clock.elapsed().as_secs_f64(),
+        path.display()
+    );
+    Ok(())
+}
