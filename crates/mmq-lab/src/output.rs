@@ -260,6 +260,9 @@ pub fn run_into(
     ctl: crate::runner::Control<'_>,
     claimed: &dyn Fn(usize),
 ) -> Result<RunWritten, LabError> {
+    // What the run would refuse (a robot configuration, tables that do not fit) is refused
+    // before the folder is touched.
+    crate::runner::check_run(cfg, world)?;
     let _lock = crate::lock::lock_out_dir(dir)?;
     claimed(claim_out_dir(dir, OutKind::Run)?);
     write_config(dir, cfg)?;

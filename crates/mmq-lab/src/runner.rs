@@ -635,6 +635,19 @@ pub fn run_all(
     observers: &ObserverFactory<'_>,
     ctl: Control<'_>,
 ) -> Result<RunOutcome, LabError> {
+    let dist = check_run(cfg, world)?;
+    let seeds = cfg.seed_list();
+    let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed }).collect();
+    let out: Vec<SeedResult> =
+        run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
+    let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
+    Ok(RunOutcome { results: out, interrupted })
+}
+
+/// Everything [`run_all`] refuses before it allocates or runs anything: the
+/// configuration, the robot's (the arena is built once), and the memory the seeds'
+/// tables need. Callers that write outputs check it before touching the output folder.
+pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> {
     let dist = cfg.validate()?;
     if cfg.env == EnvKind::Robot {
         robot_env(world)?;
@@ -663,11 +676,7 @@ pub fn run_all(
             ));
         }
     }
-    let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed }).collect();
-    let out: Vec<SeedResult> =
-        run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
-    let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
-    Ok(RunOutcome { results: out, interrupted })
+    Ok(dist)
 }
 
 /// The exact optimum of the world (re-exported for summaries).

@@ -303,13 +303,22 @@ fn every_message_validates_against_its_schema() {
 }
 
 /// The Python interpreter with `mcap` and `jsonschema`: `tools/.venv` first, then the
-/// `python3` on the PATH.
+/// `python3` on the PATH. Without one, a test that needs it is skipped with a note, except
+/// under CI (`CI` set to anything but `false` or empty), where a missing tool is a failure:
+/// CI installs it, so its absence means a check silently stopped running.
 pub fn python_with_mcap() -> Option<PathBuf> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     let candidates = [root.join("tools/.venv/bin/python"), PathBuf::from("python3")];
-    candidates.into_iter().find(|py| {
+    let found = candidates.into_iter().find(|py| {
         Command::new(py).args(["-c", "import mcap, jsonschema"]).output().is_ok_and(|o| o.status.success())
-    })
+    });
+    let under_ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false");
+    assert!(
+        found.is_some() || !under_ci,
+        "CI is set but no Python has the `mcap` and `jsonschema` packages: \
+         pip install -r tools/requirements.txt (into tools/.venv or the python3 on the PATH)"
+    );
+    found
 }
 
 #[test]
