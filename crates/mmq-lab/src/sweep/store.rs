@@ -61,9 +61,8 @@ pub(super) fn encode(x: f64) -> String {
 
 /// Reads job `j`'s file in `dir` if it is there and belongs to this plan's cell.
 pub(super) fn read_job(dir: &Path, plan: &Plan, j: usize) -> Option<Metrics> {
-    read_stored(dir, plan, j).and_then(|s| {
-        s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect()
-    })
+    read_stored(dir, plan, j)
+        .and_then(|s| s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect())
 }
 
 /// Job `j`'s file in `dir`, if it is there and belongs to this plan's cell.
@@ -74,8 +73,13 @@ fn read_stored(dir: &Path, plan: &Plan, j: usize) -> Option<StoredJob> {
     let text = mmq_core::files::read_text_bounded(&plan.job_path(dir, j), MAX_JOB_BYTES).ok()?;
     let s: StoredJob = serde_json::from_str(&text).ok()?;
     let cell = &plan.cells[c];
-    let params_match =
-        plan.fields.iter().zip(&cell.params).all(|(f, v)| s.params.get(f).is_some_and(|x| x == v));
+    // A field the cell does not give ("–": another part of the spec gives it) may be
+    // missing from a file a spec without that field wrote: the cell id is the same.
+    let params_match = plan
+        .fields
+        .iter()
+        .zip(&cell.params)
+        .all(|(f, v)| s.params.get(f).map_or(v == "–", |x| x == v));
     if s.format != FORMAT || s.cell != cell.id || s.seed != seed || !params_match {
         return None;
     }
