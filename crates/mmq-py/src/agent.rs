@@ -122,7 +122,7 @@ impl PyAgent {
             return 0;
         }
         Python::attach(|py| match agent.call_method1(py, method, (state,)) {
-            Ok(v) => self.check_action(py, method, state, v.bind(py)),
+            Ok(v) => self.check_action(method, state, v.bind(py)),
             Err(e) => {
                 self.raised(py, &format!("{method}({state})"), e);
                 0
@@ -130,8 +130,7 @@ impl PyAgent {
         })
     }
 
-    fn check_action(&self, py: Python<'_>, method: &str, state: State, v: &Bound<'_, PyAny>) -> Action {
-        let _ = py;
+    fn check_action(&self, method: &str, state: State, v: &Bound<'_, PyAny>) -> Action {
         let n = self.n_actions;
         match v.extract::<i64>() {
             Ok(a) if !v.is_instance_of::<PyBool>() && (0..n as i64).contains(&a) => a as Action,
