@@ -16,8 +16,8 @@ use rayon::prelude::*;
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::runner::{
-    Control, LearnerFactory, ObserverFactory, SeedResult, Trajectory, check_tables_fit, memory_limit, run_seed,
-    run_seed_as,
+    Control, LearnerFactory, ObserverFactory, SeedResult, Trajectory, check_tables_fit, memory_limit,
+    run_seed, run_seed_as,
 };
 
 /// One run to make: a configuration, its world and delay, a master seed and, for a
@@ -214,7 +214,8 @@ pub fn run_jobs_observed(
             Ok(o) => o.flatten(),
             Err(e) => return fail(e),
         };
-        let mut r = match run_seed_as(j.cfg, j.world, j.dist, j.seed, observer, ctl, limit, false, j.learner) {
+        let mut r = match run_seed_as(j.cfg, j.world, j.dist, j.seed, observer, ctl, limit, false, j.learner)
+        {
             Ok(r) => r,
             Err(e) => {
                 if j.cfg.baseline {

@@ -255,12 +255,16 @@ pub(crate) fn run_seed_as(
     learner: Option<&LearnerFactory<'_>>,
 ) -> Result<SeedResult, LabError> {
     match cfg.env {
-        EnvKind::Grid => run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
-            Ok(GridEnv::new(world))
-        }),
-        EnvKind::Robot => run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
-            robot_env(world)
-        }),
+        EnvKind::Grid => {
+            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
+                Ok(GridEnv::new(world))
+            })
+        }
+        EnvKind::Robot => {
+            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
+                robot_env(world)
+            })
+        }
     }
 }
 
@@ -677,7 +681,8 @@ pub fn run_all(
             ));
         }
     }
-    let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed, learner: None }).collect();
+    let jobs: Vec<Job<'_>> =
+        seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed, learner: None }).collect();
     let out: Vec<SeedResult> =
         run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
     let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);

@@ -243,7 +243,13 @@ impl Suite {
         Ok(s)
     }
 
-    fn tier_spec(&self, tier: &str, kind: LearnerKind, agent: &Agent, about: String) -> Result<SweepSpec, LabError> {
+    fn tier_spec(
+        &self,
+        tier: &str,
+        kind: LearnerKind,
+        agent: &Agent,
+        about: String,
+    ) -> Result<SweepSpec, LabError> {
         let mut top = toml::Table::new();
         top.insert("name".into(), format!("suite-{}-{tier}", self.version).into());
         top.insert("description".into(), about.into());
@@ -420,6 +426,23 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("learner"), "{e}");
+    }
+
+    /// An outside agent's spec is the tier's with the placeholder learner; a subset keeps
+    /// the suite's order and refuses names that are not tasks.
+    #[test]
+    fn external_specs_and_subsets() {
+        let s = Suite::builtin("v1").unwrap();
+        let spec = s.external_spec("lite", "mine").unwrap();
+        assert_eq!(spec.plan.cells.len(), s.tasks.len());
+        assert!(spec.text.contains("agent mine"), "{}", spec.text);
+        let names = [s.tasks[3].name.clone(), s.tasks[1].name.clone()];
+        let only = s.only(&names).unwrap();
+        assert_eq!(only.task_names(), [s.tasks[1].name.clone(), s.tasks[3].name.clone()]);
+        assert_eq!(only.external_spec("full", "mine").unwrap().plan.cells.len(), 2);
+        let e = s.only(&["nope".to_string()]).unwrap_err().to_string();
+        assert!(e.contains("`nope` is not a task"), "{e}");
+        assert!(s.external_spec("medium", "mine").is_err());
     }
 
     #[test]

@@ -57,7 +57,8 @@ pub type EventSink<'a> = dyn Fn(&SweepEvent<'_>) + Sync + 'a;
 /// Builds the learner of a job of cell `cell` in place of the spec's: called with the
 /// cell's index, the numbers of states and actions, and the master seed (see
 /// [`LearnerFactory`]).
-pub type CellLearners<'a> = dyn Fn(usize, usize, usize, u64) -> Result<Box<dyn mmq_learn::Learner>, LabError> + Sync + 'a;
+pub type CellLearners<'a> =
+    dyn Fn(usize, usize, usize, u64) -> Result<Box<dyn mmq_learn::Learner>, LabError> + Sync + 'a;
 
 /// What [`run_sweep`] did.
 #[derive(Clone, Debug)]
@@ -238,6 +239,59 @@ mod tests {
         let b = seed_metrics(&part, opt, None);
         assert!(a.contains_key("perf/relative"));
         assert!(same_results(&a, &b), "{a:?}\n{b:?}");
+    }
+
+    /// Acts 0; with `at`, gives up after `at` steps.
+    #[derive(Debug)]
+    struct GivesUp {
+        t: u64,
+        at: Option<u64>,
+    }
+
+    impl mmq_learn::Learner for GivesUp {
+        fn name(&self) -> &'static str {
+            "gives-up"
+        }
+        fn act(&mut self, _: usize, _: &mut mmq_core::Rng) -> mmq_learn::Decision {
+            mmq_learn::Decision { action: 0, model: None, explored: false }
+        }
+        fn observe(&mut self, _: &mmq_learn::Experience<'_>) {
+            self.t += 1;
+        }
+        fn greedy(&self, _: usize, _: &mut mmq_core::Rng) -> usize {
+            0
+        }
+        fn action_values(&self, _: usize, out: &mut [f64]) {
+            out.fill(0.0);
+        }
+        fn tables(&self) -> Vec<mmq_learn::Table> {
+            Vec::new()
+        }
+        fn failure(&self) -> Option<String> {
+            self.at.filter(|&a| self.t >= a).map(|a| format!("gave up after {a} steps"))
+        }
+    }
+
+    /// A factory builds every job's learner; a seed whose learner gives up is stored as
+    /// failed with its error, counts as finished and is not run again.
+    #[test]
+    fn a_factory_builds_the_learners_and_a_failed_seed_is_kept() {
+        let s = spec("world = \"../paper-3x3.toml\"\nlearner = \"q\"\ndelay = \"poisson:2\"\nsteps = 500\nseeds = 3\nbaseline = false\n").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        let made = AtomicUsize::new(0);
+        let f = |cell: usize, _: usize, n_actions: usize, seed: u64| {
+            assert_eq!((cell, n_actions), (0, 4));
+            made.fetch_add(1, Ordering::SeqCst);
+            Ok(Box::new(GivesUp { t: 0, at: (seed == 1).then_some(100) }) as Box<dyn mmq_learn::Learner>)
+        };
+        let o = run_sweep_with(&s, dir.path(), None, ctl, &|_| {}, Some(&f)).unwrap();
+        assert_eq!((o.ran, o.left, o.rows), (3, 0, 3));
+        let failures = crate::sweep::load_failures(dir.path(), &s.plan);
+        assert_eq!(failures, [None, Some("gave up after 100 steps".to_string()), None]);
+        let again = run_sweep_with(&s, dir.path(), None, ctl, &|_| {}, Some(&f)).unwrap();
+        assert_eq!((again.ran, again.skipped, made.load(Ordering::SeqCst)), (0, 3, 3));
     }
 
     /// Curve points by hand: earned reward per step in equal parts of the run.

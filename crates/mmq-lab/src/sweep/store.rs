@@ -75,11 +75,8 @@ fn read_stored(dir: &Path, plan: &Plan, j: usize) -> Option<StoredJob> {
     let cell = &plan.cells[c];
     // A field the cell does not give ("–": another part of the spec gives it) may be
     // missing from a file a spec without that field wrote: the cell id is the same.
-    let params_match = plan
-        .fields
-        .iter()
-        .zip(&cell.params)
-        .all(|(f, v)| s.params.get(f).map_or(v == "–", |x| x == v));
+    let params_match =
+        plan.fields.iter().zip(&cell.params).all(|(f, v)| s.params.get(f).map_or(v == "–", |x| x == v));
     if s.format != FORMAT || s.cell != cell.id || s.seed != seed || !params_match {
         return None;
     }
