@@ -80,7 +80,7 @@ impl PyAgent {
                 if let Some(m) = ["act", "observe"].into_iter().find(|m| !callable(m)) {
                     let what = b.get_type().name().map_or_else(|_| "?".into(), |n| n.to_string());
                     me.fail(format!(
-                        "make_agent returned a {what} without a method `{m}`; an agent has act(state) and observe(state, action, reward, next_state, info)"
+                        "make_agent returned an object of type {what} without a method `{m}`; an agent has act(state) and observe(state, action, reward, next_state, info)"
                     ));
                 } else {
                     me.has_greedy = callable("greedy");
