@@ -6,7 +6,8 @@ agents").
   Schema, and its per-task mean fraction of the optimum lies within the 95 % interval of
   the built-in `q` on the same tasks (run by the CLI on a suite file of those tasks).
 - An agent that raises on one seed fails that seed only, with the error's text; bad
-  actions fail their seeds; bad tier, task and suite names raise mmq.ConfigError.
+  actions and seeds over their time limit fail their seeds; bad tier, task and suite
+  names raise mmq.ConfigError.
 - An evaluation stopped by KeyboardInterrupt, and one of a subset of the tasks, resume
   into the results of one uninterrupted run.
 
@@ -283,3 +284,18 @@ def test_the_task_an_agent_is_told(tmp_path):
     assert (t.name, t.n_states, t.n_actions, t.max_delay, t.epsilon, t.q0) == ("three-uniform", 9, 4, 6, 0.05, 10.0)
     # Without greedy, act is the greedy policy.
     assert all(s["greedy_fraction_of_optimum"] is not None for s in r["tasks"][0]["seeds"])
+
+
+def test_a_seed_over_its_time_limit_fails(tmp_path):
+    import time
+
+    class Slow(QAgent):
+        def act(self, state):
+            time.sleep(0.002)
+            return super().act(state)
+
+    r = mmq.suite.evaluate(
+        Slow, out=tmp_path / "o", name="slow", suite=_tiny(tmp_path), tasks=["three-uniform"], time_limit_s=0.05
+    )
+    seeds = _scores(r)["three-uniform"]
+    assert len(seeds) == 3 and all(s["failed"] and "ran out of time" in s["error"] for s in seeds), seeds
