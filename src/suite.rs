@@ -142,6 +142,7 @@ fn run(
         tier: tier.into(),
         agent: agent.name(),
         tasks: suite.task_names(),
+        subset: false,
     };
     run.claim(out)?;
     let clock = Instant::now();

@@ -16,11 +16,13 @@ use rayon::prelude::*;
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::runner::{
-    Control, ObserverFactory, SeedResult, Trajectory, check_tables_fit, memory_limit, run_seed, run_seed_as,
+    Control, LearnerFactory, ObserverFactory, SeedResult, Trajectory, check_tables_fit, memory_limit,
+    run_seed, run_seed_as,
 };
 
-/// One run to make: a configuration, its world and delay, and a master seed.
-#[derive(Debug, Clone, Copy)]
+/// One run to make: a configuration, its world and delay, a master seed and, for a
+/// learner not built from a name, how to build it.
+#[derive(Clone, Copy)]
 pub struct Job<'a> {
     /// The run's configuration; with `baseline` set the job also gets the undelayed
     /// Q-learning baseline of the same world, parameters, horizon and seed.
@@ -31,6 +33,20 @@ pub struct Job<'a> {
     pub dist: &'a DelayDist,
     /// The master seed.
     pub seed: u64,
+    /// Builds the job's learner in place of `cfg`'s (None: `cfg`'s learner).
+    pub learner: Option<&'a LearnerFactory<'a>>,
+}
+
+impl std::fmt::Debug for Job<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Job")
+            .field("cfg", self.cfg)
+            .field("world", &self.world.name)
+            .field("dist", self.dist)
+            .field("seed", &self.seed)
+            .field("learner", &self.learner.map(|_| "given"))
+            .finish()
+    }
 }
 
 /// Everything an undelayed baseline depends on: jobs with equal keys share one.
@@ -136,9 +152,10 @@ pub fn run_jobs_observed(
 ) -> Result<(), LabError> {
     let parallel = rayon::current_num_threads().min(jobs.len()).max(1);
     let limit = memory_limit(parallel);
-    // Refuse tables that cannot fit before running anything (once per configuration).
+    // Refuse tables that cannot fit before running anything (once per configuration; a
+    // learner built by a factory is its own business).
     let mut checked = HashSet::new();
-    for j in jobs {
+    for j in jobs.iter().filter(|j| j.learner.is_none()) {
         if checked.insert(std::ptr::from_ref(j.cfg)) {
             check_tables_fit(j.cfg, j.world, limit)?;
         }
@@ -197,7 +214,8 @@ pub fn run_jobs_observed(
             Ok(o) => o.flatten(),
             Err(e) => return fail(e),
         };
-        let mut r = match run_seed_as(j.cfg, j.world, j.dist, j.seed, observer, ctl, limit, false) {
+        let mut r = match run_seed_as(j.cfg, j.world, j.dist, j.seed, observer, ctl, limit, false, j.learner)
+        {
             Ok(r) => r,
             Err(e) => {
                 if j.cfg.baseline {
@@ -301,8 +319,8 @@ mod tests {
         let mut other = c.clone();
         other.learner.settings = mmq_learn::LearnerSettings::of(mmq_learn::LearnerKind::Mmq);
         let jobs = [
-            Job { cfg: &c, world: &world, dist: &dist, seed: 5 },
-            Job { cfg: &other, world: &world, dist: &dist, seed: 5 },
+            Job { cfg: &c, world: &world, dist: &dist, seed: 5, learner: None },
+            Job { cfg: &other, world: &world, dist: &dist, seed: 5, learner: None },
         ];
         assert_eq!(baselines_needed(&jobs).len(), 1);
         let got = run_jobs_in_order(&jobs, None, ctl).unwrap();
@@ -328,7 +346,7 @@ mod tests {
         let dist = c.validate().unwrap();
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
-        let jobs = [Job { cfg: &c, world: &world, dist: &dist, seed: 0 }];
+        let jobs = [Job { cfg: &c, world: &world, dist: &dist, seed: 0, learner: None }];
         let e = run_jobs(&jobs, ctl, &|_, _| Err(LabError::EnvBuild("cannot keep it".into())));
         assert!(e.unwrap_err().to_string().contains("cannot keep it"));
     }

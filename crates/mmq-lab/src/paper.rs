@@ -146,7 +146,7 @@ pub fn run_groups(cfgs: Vec<RunConfig>, ctl: Control<'_>) -> Result<Vec<Group>, 
     let mut owner = Vec::new();
     for (g, c) in with_base.iter().enumerate() {
         for seed in c.seed_list() {
-            jobs.push(Job { cfg: c, world: &worlds[g], dist: &dists[g], seed });
+            jobs.push(Job { cfg: c, world: &worlds[g], dist: &dists[g], seed, learner: None });
             owner.push(g);
         }
     }

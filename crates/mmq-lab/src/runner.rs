@@ -37,6 +37,12 @@ impl std::fmt::Debug for Control<'_> {
 /// Builds a per-seed observer (an MCAP recorder, say), or none.
 pub type ObserverFactory<'a> = dyn Fn(u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> + Sync + 'a;
 
+/// Builds the learner of one seed in place of the configuration's: called with the
+/// numbers of states and actions of the environment and the master seed. This is how a
+/// learner that is not built from a name (one of another crate, an agent in Python) runs
+/// a job; its [`Learner::failure`] ends the seed as failed.
+pub type LearnerFactory<'a> = dyn Fn(usize, usize, u64) -> Result<Box<dyn Learner>, LabError> + Sync + 'a;
+
 /// Progress is reported every this many steps.
 const CHECK_EVERY: u64 = 1024;
 
@@ -126,8 +132,9 @@ pub struct SeedResult {
     pub wall_time_s: f64,
     /// Wall-clock seconds of the learning run alone (no evaluation, no baseline).
     pub learn_time_s: f64,
-    /// Why some of this seed's output was lost (its recording could not be written, say);
-    /// such a seed is never complete.
+    /// Why the seed failed: its learner gave up ([`Learner::failure`]: an agent from
+    /// outside mmq raised, say), or some of its output was lost (its recording could not
+    /// be written); such a seed is never complete.
     pub failure: Option<String>,
 }
 
@@ -230,12 +237,12 @@ pub fn run_seed(
     ctl: Control<'_>,
     mem_limit: u128,
 ) -> Result<SeedResult, LabError> {
-    run_seed_as(cfg, world, dist, seed, observer, ctl, mem_limit, cfg.baseline)
+    run_seed_as(cfg, world, dist, seed, observer, ctl, mem_limit, cfg.baseline, None)
 }
 
 /// [`run_seed`] that runs the baseline only if `own_baseline` (the executor shares
-/// baselines between jobs and attaches them itself); the configuration is recorded as
-/// given either way.
+/// baselines between jobs and attaches them itself), with the learner of `learner` when
+/// given; the configuration is recorded as given either way.
 pub(crate) fn run_seed_as(
     cfg: &RunConfig,
     world: &World,
@@ -245,18 +252,24 @@ pub(crate) fn run_seed_as(
     ctl: Control<'_>,
     mem_limit: u128,
     own_baseline: bool,
+    learner: Option<&LearnerFactory<'_>>,
 ) -> Result<SeedResult, LabError> {
     match cfg.env {
-        EnvKind::Grid => run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, || {
-            Ok(GridEnv::new(world))
-        }),
+        EnvKind::Grid => {
+            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
+                Ok(GridEnv::new(world))
+            })
+        }
         EnvKind::Robot => {
-            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, || robot_env(world))
+            run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
+                robot_env(world)
+            })
         }
     }
 }
 
-/// `run_seed_as` on environments made by `make`.
+/// `run_seed_as` on environments made by `make`; the learner is `learner`'s when given,
+/// else the configuration's.
 pub fn run_seed_on<E: Env + Telemetry>(
     cfg: &RunConfig,
     world: &World,
@@ -266,6 +279,7 @@ pub fn run_seed_on<E: Env + Telemetry>(
     ctl: Control<'_>,
     mem_limit: u128,
     own_baseline: bool,
+    learner: Option<&LearnerFactory<'_>>,
     make: impl Fn() -> Result<E, LabError>,
 ) -> Result<SeedResult, LabError> {
     let clock = Instant::now();
@@ -274,7 +288,10 @@ pub fn run_seed_on<E: Env + Telemetry>(
     mmq_learn::spare::set_threads(rayon::current_num_threads());
     let _job = mmq_learn::spare::Job::start();
     let env = make()?;
-    let mut learner = cfg.learner.build(env.num_states(), env.num_actions(), mem_limit)?;
+    let mut learner = match learner {
+        Some(f) => f(env.num_states(), env.num_actions(), seed)?,
+        None => cfg.learner.build(env.num_states(), env.num_actions(), mem_limit)?,
+    };
     let seeds = SeedTree::new(seed);
     let config_toml = cfg.to_toml();
     let facts = run_facts(cfg, world);
@@ -300,10 +317,10 @@ pub fn run_seed_on<E: Env + Telemetry>(
     let eval_steps = if complete { cfg.eval_steps } else { 0 };
     let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, eval_steps, seeds, seed)?;
     let (policy_arrows, policy_probs, values) = policy_of(&env, &*learner);
-    let mut failure = None;
+    let mut failure = learner.failure();
     if let Some(o) = observer.as_mut() {
         o.on_finish(run.steps_done, complete);
-        failure = o.error();
+        failure = failure.or_else(|| o.error());
     }
     let complete = complete && failure.is_none();
     let (mut baseline, mut baseline_greedy) = (None, None);
@@ -423,8 +440,9 @@ fn learn<E: Env + Telemetry>(
                 }
             }
         }
-        // The stop flag every step (one relaxed load: a robot primitive can take long).
-        if ctl.stop.load(Ordering::Relaxed) {
+        // The stop flag every step (one relaxed load: a robot primitive can take long),
+        // and whether the learner gave up (an outside agent that raised).
+        if ctl.stop.load(Ordering::Relaxed) || learner.failure().is_some() {
             break;
         }
         let d = learner.act(s, &mut rng);
@@ -637,7 +655,8 @@ pub fn run_all(
 ) -> Result<RunOutcome, LabError> {
     let dist = check_run(cfg, world)?;
     let seeds = cfg.seed_list();
-    let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed }).collect();
+    let jobs: Vec<Job<'_>> =
+        seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed, learner: None }).collect();
     let out: Vec<SeedResult> =
         run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
     let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);

@@ -121,6 +121,13 @@ pub trait Learner: Send + std::fmt::Debug {
     }
     /// Starts a new run: clears memories of past steps (tables are kept).
     fn reset_history(&mut self) {}
+    /// Why the learner cannot go on, if it cannot: an agent from outside mmq (a Python
+    /// object, say) that raised or answered with an action out of range. The runner checks
+    /// it before every step and ends the seed as failed with this text. mmq's own learners
+    /// never fail.
+    fn failure(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Maximum of a slice (NaN-free values).

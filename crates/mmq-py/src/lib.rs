@@ -1,6 +1,7 @@
 //! mmq-py: the native module `mmq._mmq` behind the Python package `mmq` — environments
 //! behind the delay channel ([`env`](mod@env)), vector environments batched in Rust ([`vector`]),
-//! learners and the lab's runner ([`learn`]), and the MCAP reader ([`read`]).
+//! learners and the lab's runner ([`learn`]), the MCAP reader ([`read`]), and Python
+//! agents on the benchmark suite ([`suite`], [`agent`]).
 //!
 //! The Python package (`python/mmq/`) wraps these in Gymnasium classes; everything that
 //! can fail on user input raises `mmq.ConfigError` (a `ValueError`) naming the keyword
@@ -8,10 +9,12 @@
 //!
 //! Architecture invariant: this is the only crate of mmq that knows pyo3 and NumPy.
 
+pub mod agent;
 pub mod config;
 pub mod env;
 pub mod learn;
 pub mod read;
+pub mod suite;
 pub mod vector;
 
 use pyo3::prelude::*;
@@ -83,6 +86,7 @@ fn _mmq(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(learners, m)?)?;
     m.add_function(wrap_pyfunction!(learn::run_json, m)?)?;
     m.add_function(wrap_pyfunction!(read::read_recording_columns, m)?)?;
+    m.add_function(wrap_pyfunction!(suite::suite_evaluate, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     Ok(())
 }

@@ -206,12 +206,53 @@ impl Suite {
                 return Err(not_a_setting(kind, k));
             }
         }
+        let about = format!("Suite {}, tier {tier}, agent {}.", self.version, agent.name());
+        self.tier_spec(tier, kind, agent, about)
+    }
+
+    /// The sweep spec of `tier` for an agent from outside mmq named `name`, whose
+    /// learner a factory builds ([`crate::sweep::run_sweep_with`]): the spec's learner is
+    /// `q`, a placeholder that fixes the shared parameters (α, γ, ε, q0) the tasks give.
+    pub fn external_spec(&self, tier: &str, name: &str) -> Result<SweepSpec, LabError> {
+        self.tier(tier)?;
+        let about = format!(
+            "Suite {}, tier {tier}, agent {name} (from outside mmq: the learner field is a placeholder; the seeds' learner is the agent).",
+            self.version
+        );
+        let placeholder = Agent { learner: LearnerKind::Q.name().into(), settings: Vec::new() };
+        self.tier_spec(tier, LearnerKind::Q, &placeholder, about)
+    }
+
+    /// The suite with only the tasks named, in the suite's order; a name that is not a
+    /// task is refused by name.
+    pub fn only(&self, names: &[String]) -> Result<Suite, LabError> {
+        if let Some(n) = names.iter().find(|n| !self.tasks.iter().any(|t| &t.name == *n)) {
+            return Err(LabError::Config {
+                file: format!("suite {}", self.version),
+                message: format!("`{n}` is not a task; the tasks are {}", self.task_names().join(", ")),
+            });
+        }
+        if names.is_empty() {
+            return Err(LabError::Config {
+                file: format!("suite {}", self.version),
+                message: "no tasks chosen; name at least one task".into(),
+            });
+        }
+        let mut s = self.clone();
+        s.tasks.retain(|t| names.contains(&t.name));
+        Ok(s)
+    }
+
+    fn tier_spec(
+        &self,
+        tier: &str,
+        kind: LearnerKind,
+        agent: &Agent,
+        about: String,
+    ) -> Result<SweepSpec, LabError> {
         let mut top = toml::Table::new();
         top.insert("name".into(), format!("suite-{}-{tier}", self.version).into());
-        top.insert(
-            "description".into(),
-            format!("Suite {}, tier {tier}, agent {}.", self.version, agent.name()).into(),
-        );
+        top.insert("description".into(), about.into());
         top.insert("learner".into(), agent.learner.clone().into());
         top.insert("baseline".into(), false.into());
         if !agent.settings.is_empty() {
@@ -298,15 +339,23 @@ pub struct SuiteRun {
     pub agent: String,
     /// The tasks, in the order of the sweep's cells.
     pub tasks: Vec<String>,
+    /// Only some of the suite's tasks were chosen (`tasks=` of `mmq.suite.evaluate`): the
+    /// results are never complete.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub subset: bool,
 }
 
 impl SuiteRun {
     /// Writes `DIR/suite.json`; a directory that already holds another suite run is
-    /// refused (choose another `out`).
+    /// refused (choose another `out`). A run of some of the tasks and one of other tasks
+    /// (or all) of the same suite, tier and agent share a directory: the finished seeds
+    /// of the tasks in common are kept.
     pub fn claim(&self, dir: &Path) -> Result<(), LabError> {
         if dir.join("suite.json").exists() {
             let mine = SuiteRun::read(dir)?;
-            if &mine != self {
+            let resized = (mine.subset || self.subset)
+                && (&mine.suite, &mine.tier, &mine.agent) == (&self.suite, &self.tier, &self.agent);
+            if &mine != self && !resized {
                 return Err(LabError::Config {
                     file: dir.join("suite.json").display().to_string(),
                     message: format!(
@@ -315,7 +364,9 @@ impl SuiteRun {
                     ),
                 });
             }
-            return Ok(());
+            if &mine == self {
+                return Ok(());
+            }
         }
         let text = serde_json::to_string_pretty(self).unwrap_or_default() + "\n";
         crate::output::write_atomic(&dir.join("suite.json"), text.as_bytes())
@@ -375,6 +426,23 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("learner"), "{e}");
+    }
+
+    /// An outside agent's spec is the tier's with the placeholder learner; a subset keeps
+    /// the suite's order and refuses names that are not tasks.
+    #[test]
+    fn external_specs_and_subsets() {
+        let s = Suite::builtin("v1").unwrap();
+        let spec = s.external_spec("lite", "mine").unwrap();
+        assert_eq!(spec.plan.cells.len(), s.tasks.len());
+        assert!(spec.text.contains("agent mine"), "{}", spec.text);
+        let names = [s.tasks[3].name.clone(), s.tasks[1].name.clone()];
+        let only = s.only(&names).unwrap();
+        assert_eq!(only.task_names(), [s.tasks[1].name.clone(), s.tasks[3].name.clone()]);
+        assert_eq!(only.external_spec("full", "mine").unwrap().plan.cells.len(), 2);
+        let e = s.only(&["nope".to_string()]).unwrap_err().to_string();
+        assert!(e.contains("`nope` is not a task"), "{e}");
+        assert!(s.external_spec("medium", "mine").is_err());
     }
 
     #[test]

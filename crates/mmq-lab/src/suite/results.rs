@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use super::SuiteRun;
 use crate::error::LabError;
-use crate::sweep::{Metrics, Plan, load_results, read_manifest};
+use crate::sweep::{Metrics, Plan, load_failures, load_results, read_manifest};
 
 /// Format tag of results files.
 pub const FORMAT: &str = "mmq-suite-results/1";
@@ -115,9 +115,15 @@ pub struct SuiteResults {
     pub tasks: Vec<TaskResults>,
 }
 
-/// The results of a suite run from its plan and its jobs' metrics (None: not finished).
-pub fn collect(run: &SuiteRun, plan: &Plan, jobs: &[Option<Metrics>]) -> SuiteResults {
-    let mut complete = true;
+/// The results of a suite run from its plan, its jobs' metrics (None: not finished) and
+/// why jobs failed (None: not failed). A run of some of the tasks is never complete.
+pub fn collect(
+    run: &SuiteRun,
+    plan: &Plan,
+    jobs: &[Option<Metrics>],
+    failures: &[Option<String>],
+) -> SuiteResults {
+    let mut complete = !run.subset;
     let tasks = run
         .tasks
         .iter()
@@ -129,7 +135,10 @@ pub fn collect(run: &SuiteRun, plan: &Plan, jobs: &[Option<Metrics>]) -> SuiteRe
                     let (_, seed) = plan.job(j);
                     let m = jobs[j].as_ref();
                     complete &= m.is_some();
-                    m.map(|m| SeedScore::from_metrics(seed, m))
+                    m.map(|m| match &failures[j] {
+                        Some(e) => SeedScore::failed(seed, e.clone()),
+                        None => SeedScore::from_metrics(seed, m),
+                    })
                 })
                 .collect();
             TaskResults { task: task.clone(), seeds }
@@ -161,7 +170,7 @@ pub fn results_of_dir(dir: &Path) -> Result<SuiteResults, LabError> {
             ),
         });
     }
-    Ok(collect(&run, &m.plan, &load_results(dir, &m.plan)))
+    Ok(collect(&run, &m.plan, &load_results(dir, &m.plan), &load_failures(dir, &m.plan)))
 }
 
 /// Writes `DIR/results.json` and returns its path.

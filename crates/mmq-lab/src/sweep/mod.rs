@@ -40,9 +40,9 @@ pub use report::{
     CellStats, HEADLINE, ROBOT_COLUMNS, axis_number, cell_stats, combine, combined_markdown, learner_labels,
     learner_markdown, results_csv, robot_markdown, settings, summary_csv, summary_markdown,
 };
-pub use run::{EventSink, SweepEvent, SweepOutcome, run_sweep};
+pub use run::{CellLearners, EventSink, SweepEvent, SweepOutcome, run_sweep, run_sweep_with};
 pub use spec::SweepSpec;
-pub use store::{Manifest, load_results, read_manifest};
+pub use store::{Manifest, load_failures, load_results, read_manifest};
 
 /// Format tag of `sweep.json` and of the per-job files.
 pub const FORMAT: &str = "mmq-sweep/1";

@@ -10,12 +10,12 @@ use rayon::prelude::*;
 
 use super::plan::Shard;
 use super::spec::SweepSpec;
-use super::store::{finish_dir, read_job, write_job};
+use super::store::{finish_dir, read_job, write_failed_job, write_job};
 use crate::config::RunConfig;
 use crate::error::LabError;
 use crate::exec::{Job, baselines_needed, run_jobs};
 use crate::output::write_atomic;
-use crate::runner::{Control, Trajectory};
+use crate::runner::{Control, LearnerFactory, Trajectory};
 use crate::summary::seed_metrics;
 
 /// What a sweep reports while it runs (the CLI prints it).
@@ -53,6 +53,12 @@ pub enum SweepEvent<'a> {
 
 /// Callback for [`SweepEvent`]s.
 pub type EventSink<'a> = dyn Fn(&SweepEvent<'_>) + Sync + 'a;
+
+/// Builds the learner of a job of cell `cell` in place of the spec's: called with the
+/// cell's index, the numbers of states and actions, and the master seed (see
+/// [`LearnerFactory`]).
+pub type CellLearners<'a> =
+    dyn Fn(usize, usize, usize, u64) -> Result<Box<dyn mmq_learn::Learner>, LabError> + Sync + 'a;
 
 /// What [`run_sweep`] did.
 #[derive(Clone, Debug)]
@@ -105,6 +111,20 @@ pub fn run_sweep(
     ctl: Control<'_>,
     events: &EventSink<'_>,
 ) -> Result<SweepOutcome, LabError> {
+    run_sweep_with(spec, out, shard, ctl, events, None)
+}
+
+/// [`run_sweep`] with each job's learner built by `learners` (when given) in place of the
+/// spec's. A seed whose learner failed is finished: it is written as failed, with the
+/// learner's error, and not run again.
+pub fn run_sweep_with(
+    spec: &SweepSpec,
+    out: &Path,
+    shard: Option<Shard>,
+    ctl: Control<'_>,
+    events: &EventSink<'_>,
+    learners: Option<&CellLearners<'_>>,
+) -> Result<SweepOutcome, LabError> {
     let plan = &spec.plan;
     let spec_file = spec.file.display().to_string();
     let _lock = crate::lock::lock_out_dir(out)?;
@@ -117,11 +137,18 @@ pub fn run_sweep(
     let skipped = here.len() - pending.len();
 
     let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
+    let per_cell: Vec<Box<LearnerFactory<'_>>> = match learners {
+        Some(f) => (0..plan.cells.len())
+            .map(|c| Box::new(move |s, a, seed| f(c, s, a, seed)) as Box<LearnerFactory<'_>>)
+            .collect(),
+        None => Vec::new(),
+    };
     let jobs: Vec<Job<'_>> = pending
         .iter()
         .map(|&j| {
             let (c, seed) = plan.job(j);
-            Job { cfg: spec.config(c), world: spec.world(c), dist: &dists[c], seed }
+            let learner = per_cell.get(c).map(|f| &**f);
+            Job { cfg: spec.config(c), world: spec.world(c), dist: &dists[c], seed, learner }
         })
         .collect();
     let baselines = baselines_needed(&jobs);
@@ -141,14 +168,17 @@ pub fn run_sweep(
         .collect();
     let finished = AtomicUsize::new(0);
     let ran = run_jobs(&jobs, ctl, &|i, r| {
-        if !r.complete {
-            return Ok(());
-        }
         let j = pending[i];
         let (c, seed) = plan.job(j);
-        let mut metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
-        metrics.extend(curve_points(&r.run, spec.config(c).steps, spec.curve));
-        write_job(out, plan, j, &metrics)?;
+        if let Some(e) = &r.failure {
+            write_failed_job(out, plan, j, e)?;
+        } else if r.complete {
+            let mut metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
+            metrics.extend(curve_points(&r.run, spec.config(c).steps, spec.curve));
+            write_job(out, plan, j, &metrics)?;
+        } else {
+            return Ok(());
+        }
         let n = finished.fetch_add(1, Ordering::SeqCst) + 1;
         events(&SweepEvent::JobDone {
             cell: &plan.cells[c].id,
@@ -209,6 +239,59 @@ mod tests {
         let b = seed_metrics(&part, opt, None);
         assert!(a.contains_key("perf/relative"));
         assert!(same_results(&a, &b), "{a:?}\n{b:?}");
+    }
+
+    /// Acts 0; with `at`, gives up after `at` steps.
+    #[derive(Debug)]
+    struct GivesUp {
+        t: u64,
+        at: Option<u64>,
+    }
+
+    impl mmq_learn::Learner for GivesUp {
+        fn name(&self) -> &'static str {
+            "gives-up"
+        }
+        fn act(&mut self, _: usize, _: &mut mmq_core::Rng) -> mmq_learn::Decision {
+            mmq_learn::Decision { action: 0, model: None, explored: false }
+        }
+        fn observe(&mut self, _: &mmq_learn::Experience<'_>) {
+            self.t += 1;
+        }
+        fn greedy(&self, _: usize, _: &mut mmq_core::Rng) -> usize {
+            0
+        }
+        fn action_values(&self, _: usize, out: &mut [f64]) {
+            out.fill(0.0);
+        }
+        fn tables(&self) -> Vec<mmq_learn::Table> {
+            Vec::new()
+        }
+        fn failure(&self) -> Option<String> {
+            self.at.filter(|&a| self.t >= a).map(|a| format!("gave up after {a} steps"))
+        }
+    }
+
+    /// A factory builds every job's learner; a seed whose learner gives up is stored as
+    /// failed with its error, counts as finished and is not run again.
+    #[test]
+    fn a_factory_builds_the_learners_and_a_failed_seed_is_kept() {
+        let s = spec("world = \"../paper-3x3.toml\"\nlearner = \"q\"\ndelay = \"poisson:2\"\nsteps = 500\nseeds = 3\nbaseline = false\n").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        let made = AtomicUsize::new(0);
+        let f = |cell: usize, _: usize, n_actions: usize, seed: u64| {
+            assert_eq!((cell, n_actions), (0, 4));
+            made.fetch_add(1, Ordering::SeqCst);
+            Ok(Box::new(GivesUp { t: 0, at: (seed == 1).then_some(100) }) as Box<dyn mmq_learn::Learner>)
+        };
+        let o = run_sweep_with(&s, dir.path(), None, ctl, &|_| {}, Some(&f)).unwrap();
+        assert_eq!((o.ran, o.left, o.rows), (3, 0, 3));
+        let failures = crate::sweep::load_failures(dir.path(), &s.plan);
+        assert_eq!(failures, [None, Some("gave up after 100 steps".to_string()), None]);
+        let again = run_sweep_with(&s, dir.path(), None, ctl, &|_| {}, Some(&f)).unwrap();
+        assert_eq!((again.ran, again.skipped, made.load(Ordering::SeqCst)), (0, 3, 3));
     }
 
     /// Curve points by hand: earned reward per step in equal parts of the run.

@@ -40,6 +40,8 @@ pub struct Manifest {
 /// One finished job, `cells/<cell-id>/seed-<n>.json`. Metric values are stored as text
 /// in Rust's shortest round-trip form (`NaN`, `inf` included), so they read back bit
 /// for bit; the `seed` metric is the job's seed as an integer (exact up to 2^64 − 1).
+/// A job whose learner failed ([`mmq_learn::Learner::failure`]) is finished too: its
+/// metrics are `seed` and `failed` (1), and `error` says why.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StoredJob {
@@ -49,6 +51,8 @@ struct StoredJob {
     seed: u64,
     params: BTreeMap<String, String>,
     metrics: BTreeMap<String, String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    error: Option<String>,
 }
 
 pub(super) fn encode(x: f64) -> String {
@@ -57,21 +61,46 @@ pub(super) fn encode(x: f64) -> String {
 
 /// Reads job `j`'s file in `dir` if it is there and belongs to this plan's cell.
 pub(super) fn read_job(dir: &Path, plan: &Plan, j: usize) -> Option<Metrics> {
+    read_stored(dir, plan, j)
+        .and_then(|s| s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect())
+}
+
+/// Job `j`'s file in `dir`, if it is there and belongs to this plan's cell.
+fn read_stored(dir: &Path, plan: &Plan, j: usize) -> Option<StoredJob> {
     let (c, seed) = plan.job(j);
     // A job file is a few KiB; anything else (a link to /dev/zero, a FIFO, a huge file)
     // is not a finished job and is run again.
     let text = mmq_core::files::read_text_bounded(&plan.job_path(dir, j), MAX_JOB_BYTES).ok()?;
     let s: StoredJob = serde_json::from_str(&text).ok()?;
     let cell = &plan.cells[c];
+    // A field the cell does not give ("–": another part of the spec gives it) may be
+    // missing from a file a spec without that field wrote: the cell id is the same.
     let params_match =
-        plan.fields.iter().zip(&cell.params).all(|(f, v)| s.params.get(f).is_some_and(|x| x == v));
+        plan.fields.iter().zip(&cell.params).all(|(f, v)| s.params.get(f).map_or(v == "–", |x| x == v));
     if s.format != FORMAT || s.cell != cell.id || s.seed != seed || !params_match {
         return None;
     }
-    s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect()
+    Some(s)
+}
+
+/// Writes job `j` as failed with `error`: finished, its metrics `seed` and `failed`.
+pub(super) fn write_failed_job(dir: &Path, plan: &Plan, j: usize, error: &str) -> Result<(), LabError> {
+    let (_, seed) = plan.job(j);
+    let metrics: Metrics = [("seed".to_string(), seed as f64), ("failed".to_string(), 1.0)].into();
+    write_stored(dir, plan, j, &metrics, Some(error))
 }
 
 pub(super) fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) -> Result<(), LabError> {
+    write_stored(dir, plan, j, metrics, None)
+}
+
+fn write_stored(
+    dir: &Path,
+    plan: &Plan,
+    j: usize,
+    metrics: &Metrics,
+    error: Option<&str>,
+) -> Result<(), LabError> {
     let (c, seed) = plan.job(j);
     let cell = &plan.cells[c];
     let s = StoredJob {
@@ -89,6 +118,7 @@ pub(super) fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) ->
                 (k.clone(), text)
             })
             .collect(),
+        error: error.map(str::to_string),
     };
     let text = serde_json::to_string_pretty(&s).unwrap_or_default() + "\n";
     write_renamed(&plan.job_path(dir, j), text.as_bytes())
@@ -110,6 +140,11 @@ pub(super) fn write_renamed(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
 /// Finished results of every job of `plan` found in `dir` (None where missing).
 pub fn load_results(dir: &Path, plan: &Plan) -> Vec<Option<Metrics>> {
     (0..plan.jobs()).into_par_iter().map(|j| read_job(dir, plan, j)).collect()
+}
+
+/// Why each job of `plan` found in `dir` failed (None where missing or not failed).
+pub fn load_failures(dir: &Path, plan: &Plan) -> Vec<Option<String>> {
+    (0..plan.jobs()).into_par_iter().map(|j| read_stored(dir, plan, j).and_then(|s| s.error)).collect()
 }
 
 /// Reads `DIR/sweep.json`.

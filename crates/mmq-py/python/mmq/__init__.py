@@ -5,7 +5,8 @@ world) and ``mmq/Robot-v0`` (a rapier2d differential-drive robot in the same wor
 each with a vector form batched in Rust (``gym.make_vec(...,
 vectorization_mode="vector_entry_point")``). It also gives the learners of mmq
 (:class:`Learner`), the CLI's runner (:func:`run`) and readers for run folders
-(:func:`read_run`) and MCAP recordings (:func:`read_recording`).
+(:func:`read_run`) and MCAP recordings (:func:`read_recording`), and runs agents of
+your own on the benchmark suite (:func:`mmq.suite.evaluate`).
 
 Example::
 
@@ -19,7 +20,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 
-from mmq import _mmq
+from mmq import _mmq, suite
 from mmq._mmq import ConfigError, next_seed
 from mmq.learn import Learner, run
 from mmq.read import Recording, Run, read_recording, read_run
@@ -35,6 +36,7 @@ __all__ = [
     "read_recording",
     "read_run",
     "run",
+    "suite",
     "world_names",
 ]
 
