@@ -133,11 +133,23 @@ const A: usize = 4;
 
 /// Computes the ε-soft ceiling of `world` for the four moves, `epsilon` in [0, 1].
 pub fn epsilon_soft_ceiling(world: &World, epsilon: f64) -> Ceiling {
+    match epsilon_soft_ceiling_until(world, epsilon, &|| false) {
+        Some(c) => c,
+        None => unreachable!("a computation that is never stopped ends with a ceiling"),
+    }
+}
+
+/// [`epsilon_soft_ceiling`] that gives up (returns `None`) as soon as `stop()` says so;
+/// `stop` is asked once per sweep over the cells (a few milliseconds on a 500 × 500 world).
+pub fn epsilon_soft_ceiling_until(world: &World, epsilon: f64, stop: &dyn Fn() -> bool) -> Option<Ceiling> {
+    if stop() {
+        return None;
+    }
     let eps = epsilon.clamp(0.0, 1.0);
     if eps == 0.0 {
         // No exploration: the exact optimum.
         let g = crate::optimum(world).gain;
-        return Ceiling { epsilon: eps, gain: g, lower: g, upper: g };
+        return Some(Ceiling { epsilon: eps, gain: g, lower: g, upper: g });
     }
     let mv = Moves::of(world);
     let n = mv.next.len() / A;
@@ -183,6 +195,9 @@ pub fn epsilon_soft_ceiling(world: &World, epsilon: f64) -> Ceiling {
                 steps[i] = 1.0 + greedy * steps[mv.next[best_k]] + share * tsum;
             }
             work += n as u64;
+            if stop() {
+                return None;
+            }
             let floor = 64.0 * f64::EPSILON * (vmax + scale);
             let settled = delta <= (1e-3 * TOLERANCE).max(floor);
             // Near rounding, a sweep that changes as much as the one before ends it too.
@@ -222,6 +237,9 @@ pub fn epsilon_soft_ceiling(world: &World, epsilon: f64) -> Ceiling {
     let mut th = vec![0.0f64; n];
     let mut left = MAX_WORK;
     while upper - lower > TOLERANCE && left >= n as u64 {
+        if stop() {
+            return None;
+        }
         left -= n as u64;
         for (i, t) in th.iter_mut().enumerate() {
             let row = i * A..(i + 1) * A;
@@ -246,7 +264,7 @@ pub fn epsilon_soft_ceiling(world: &World, epsilon: f64) -> Ceiling {
         let base = v[mv.respawn];
         v.iter_mut().for_each(|x| *x -= base);
     }
-    Ceiling { epsilon: eps, gain: 0.5 * (lower + upper), lower, upper }
+    Some(Ceiling { epsilon: eps, gain: 0.5 * (lower + upper), lower, upper })
 }
 
 /// min and max over the cells of (T h − h), the bounds on the gain that `h` gives.
@@ -318,6 +336,20 @@ mod tests {
     }
 
     /// The ceiling falls as ε grows and stays below the optimum.
+    #[test]
+    fn a_stopped_computation_gives_up_and_an_unstopped_one_is_the_same() {
+        let w = world("G....\n.....\n.....\n.....\n....S");
+        assert!(epsilon_soft_ceiling_until(&w, 0.1, &|| true).is_none());
+        let asked = std::cell::Cell::new(0u32);
+        // Stopped at the third question: somewhere inside the sweeps.
+        let third = || {
+            asked.set(asked.get() + 1);
+            asked.get() >= 3
+        };
+        assert!(epsilon_soft_ceiling_until(&w, 0.1, &third).is_none());
+        assert_eq!(epsilon_soft_ceiling_until(&w, 0.1, &|| false), Some(epsilon_soft_ceiling(&w, 0.1)));
+    }
+
     #[test]
     fn more_exploration_earns_less() {
         let w = world("G....\n.....\n.....\n.....\n....S");

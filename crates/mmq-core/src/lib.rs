@@ -18,7 +18,7 @@ pub mod stats;
 pub mod text_value;
 pub mod world;
 
-pub use ceiling::{Ceiling, epsilon_soft_ceiling};
+pub use ceiling::{Ceiling, epsilon_soft_ceiling, epsilon_soft_ceiling_until};
 pub use channel::{DelayStats, DelayedReward, DelayedStep, Emission, Ledger};
 pub use delay::{DelayDist, DelayError, DelaySampler, DelayUnit, SecondsDist, SecondsSampler};
 pub use env::{

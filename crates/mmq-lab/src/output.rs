@@ -195,15 +195,17 @@ pub fn npy_bytes(t: &Table) -> Vec<u8> {
     out
 }
 
-/// Writes every output of a finished (or interrupted) run.
+/// Writes every output of a finished (or interrupted) run; `stop` cuts the summary short
+/// (see [`Summary::new_until`]).
 pub fn write_results(
     dir: &Path,
     cfg: &RunConfig,
     world: &World,
     results: &[SeedResult],
     complete: bool,
+    stop: &dyn Fn() -> bool,
 ) -> Result<(Summary, Vec<PathBuf>), LabError> {
-    let summary = Summary::new(cfg, world, results, complete);
+    let summary = Summary::new_until(cfg, world, results, complete, stop);
     let mut files = Vec::new();
     let p = dir.join("metrics.csv");
     write_atomic(&p, metrics_csv(results).as_bytes())?;
@@ -268,8 +270,11 @@ pub fn run_into(
     write_config(dir, cfg)?;
     let outcome = crate::runner::run_all(cfg, world, observers, ctl)?;
     let lost = outcome.failures().into_iter().map(str::to_string).collect();
-    let (summary, _) = write_results(dir, cfg, world, &outcome.results, !outcome.interrupted)?;
-    Ok(RunWritten { summary, interrupted: outcome.interrupted, lost })
+    let stopped = || ctl.stop.load(std::sync::atomic::Ordering::Relaxed);
+    let (summary, _) = write_results(dir, cfg, world, &outcome.results, !outcome.interrupted, &stopped)?;
+    // A stop during the summary leaves it without its ceiling, and incomplete.
+    let interrupted = outcome.interrupted || !summary.complete;
+    Ok(RunWritten { summary, interrupted, lost })
 }
 
 #[cfg(test)]

@@ -316,7 +316,11 @@ pub fn run_seed_on<E: Env + Telemetry>(
     // robot's thousand primitives take seconds), and a partial policy's score means little.
     let eval_steps = if complete { cfg.eval_steps } else { 0 };
     let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, eval_steps, seeds, seed)?;
-    let (policy_arrows, policy_probs, values) = policy_of(&env, &*learner);
+    // The policy maps visit every state (a second on the largest worlds): a stop cuts them
+    // short, and the seed is then incomplete.
+    let stopped = || ctl.stop.load(Ordering::Relaxed);
+    let (policy_arrows, policy_probs, values, whole) = policy_of(&env, &*learner, &stopped);
+    let complete = complete && whole;
     let mut failure = learner.failure();
     if let Some(o) = observer.as_mut() {
         o.on_finish(run.steps_done, complete);
@@ -588,8 +592,11 @@ pub fn evaluate<E: Env + Telemetry>(
     Ok((total / steps as f64, path))
 }
 
-/// Deterministic (bit set of maximisers) and probabilistic policies per state.
-fn policy_of<E: Env>(env: &E, learner: &dyn Learner) -> (Vec<u8>, Vec<Vec<f64>>, Vec<f64>) {
+/// Deterministic (bit set of maximisers) and probabilistic policies per state, and
+/// whether every state was visited (`stop()` is asked every 1,024 states; states after a
+/// stop keep no arrow and a NaN value).
+type Policy = (Vec<u8>, Vec<Vec<f64>>, Vec<f64>, bool);
+fn policy_of<E: Env>(env: &E, learner: &dyn Learner, stop: &dyn Fn() -> bool) -> Policy {
     let n = env.num_states();
     let na = env.num_actions();
     let mut arrows = vec![0u8; n];
@@ -597,6 +604,9 @@ fn policy_of<E: Env>(env: &E, learner: &dyn Learner) -> (Vec<u8>, Vec<Vec<f64>>,
     let mut values = vec![f64::NAN; n];
     let mut buf = vec![0.0; na];
     for s in 0..n {
+        if s % 1024 == 0 && stop() {
+            return (arrows, probs, values, false);
+        }
         if !env.world().is_free(env.state_cell(s)) {
             continue;
         }
@@ -610,7 +620,7 @@ fn policy_of<E: Env>(env: &E, learner: &dyn Learner) -> (Vec<u8>, Vec<Vec<f64>>,
         }
         probs[s] = probabilistic(&buf);
     }
-    (arrows, probs, values)
+    (arrows, probs, values, true)
 }
 
 /// Memory available for tables: MemAvailable from /proc/meminfo (or 8 GiB), shared by

@@ -61,14 +61,30 @@ pub const RELATIVE_ABSENT: &str = "relative performance is absent where the unde
 
 /// The ε-soft ceiling of a run's setting, when its actions are the world's four moves.
 pub fn ceiling_per_step(cfg: &RunConfig, world: &World) -> Option<f64> {
+    ceiling_per_step_until(cfg, world, &|| false).flatten()
+}
+
+/// [`ceiling_per_step`] that gives up when `stop()` says so: `None` when stopped,
+/// `Some(None)` when the setting has no ceiling (actions other than the four moves).
+pub fn ceiling_per_step_until(
+    cfg: &RunConfig,
+    world: &World,
+    stop: &dyn Fn() -> bool,
+) -> Option<Option<f64>> {
     let moves = match cfg.env {
         crate::config::EnvKind::Grid => true,
         crate::config::EnvKind::Robot => {
             mmq_robot::RobotConfig::from_world(world).is_ok_and(|c| c.actions == mmq_robot::ActionSet::Moves)
         }
     };
-    moves.then(|| mmq_core::epsilon_soft_ceiling(world, cfg.learner.params.epsilon).gain)
+    if !moves {
+        return Some(None);
+    }
+    mmq_core::epsilon_soft_ceiling_until(world, cfg.learner.params.epsilon, stop).map(|c| Some(c.gain))
 }
+
+/// Said in a summary whose ceiling was not computed because the run was stopped.
+pub const CEILING_CUT: &str = "the ε-soft ceiling was not computed: the run was stopped while its summary was written (perf/fraction_of_ceiling is absent)";
 
 /// A learner's diagnostics under their metric names: its figures as named, the delay
 /// estimate as `delay/mean_est`, `delay/median_est`, `delay/estimated` (1 or 0),
@@ -207,8 +223,21 @@ pub fn aggregate(
 impl Summary {
     /// Summarises `results` of `cfg` on `world`.
     pub fn new(cfg: &RunConfig, world: &World, results: &[SeedResult], complete: bool) -> Summary {
+        Summary::new_until(cfg, world, results, complete, &|| false)
+    }
+
+    /// [`Summary::new`] that skips the ε-soft ceiling (seconds on the largest worlds) once
+    /// `stop()` says so; such a summary is incomplete and says why in its notes.
+    pub fn new_until(
+        cfg: &RunConfig,
+        world: &World,
+        results: &[SeedResult],
+        complete: bool,
+        stop: &dyn Fn() -> bool,
+    ) -> Summary {
         let optimum = mmq_core::optimum(world).gain;
-        let ceiling = ceiling_per_step(cfg, world);
+        let cut = ceiling_per_step_until(cfg, world, stop);
+        let ceiling = cut.flatten();
         let seeds: Vec<SeedEntry> = results
             .iter()
             .map(|r| {
@@ -220,9 +249,12 @@ impl Summary {
             .collect();
         let done: Vec<&BTreeMap<String, f64>> =
             seeds.iter().filter(|e| e.complete).map(|e| &e.metrics).collect();
-        let (mean, notes) = aggregate(&done, |_| true);
+        let (mean, mut notes) = aggregate(&done, |_| true);
+        if cut.is_none() {
+            notes.push(CEILING_CUT.to_string());
+        }
         Summary {
-            complete,
+            complete: complete && cut.is_some(),
             config: cfg.clone(),
             learner: describe(&cfg.learner),
             world: world.name.clone(),
@@ -237,5 +269,31 @@ impl Summary {
     /// Mean of a metric, if present.
     pub fn get(&self, key: &str) -> Option<MeanCi> {
         self.mean.get(key).copied()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    use super::*;
+
+    /// A stop while the summary is made leaves out the ceiling, marks the summary
+    /// incomplete and says why; without one the same summary has its ceiling.
+    #[test]
+    fn a_stop_during_the_summary_leaves_out_the_ceiling_and_says_so() {
+        let world = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml"));
+        let cfg = RunConfig { world, ..RunConfig::default() };
+        let w = cfg.load_world().unwrap();
+        let whole = Summary::new_until(&cfg, &w, &[], true, &|| false);
+        assert!(whole.complete);
+        assert_eq!(whole.ceiling_per_step, ceiling_per_step(&cfg, &w));
+        assert!(whole.ceiling_per_step.is_some_and(|c| c > 0.58 && c < 10.0 / 17.0));
+        assert!(!whole.notes.iter().any(|n| n == CEILING_CUT));
+        let cut = Summary::new_until(&cfg, &w, &[], true, &|| true);
+        assert!(!cut.complete);
+        assert_eq!(cut.ceiling_per_step, None);
+        assert!(cut.notes.iter().any(|n| n == CEILING_CUT), "{:?}", cut.notes);
+        assert_eq!(cut.optimum_per_step, whole.optimum_per_step);
     }
 }
