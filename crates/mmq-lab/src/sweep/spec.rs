@@ -200,6 +200,19 @@ mod tests {
         assert!(e.contains("t.toml:2:1: learnr: unknown field"), "{e}");
         let e = spec("world = \"../paper-3x3.toml\"\nsteps = \"many\"\n").unwrap_err().to_string();
         assert!(e.contains("t.toml:2:9: steps: invalid type"), "{e}");
+        // TOML's integers stop at 2^63 − 1: the error names the limit and where larger
+        // seeds go, at the top and in a part alike.
+        let top = "world = \"../paper-3x3.toml\"\nseed = 18446744073709551615\n";
+        let part = "world = \"../paper-3x3.toml\"\n[[part]]\nseed = 18446744073709551615\n";
+        for text in [top, part] {
+            let e = spec(text).unwrap_err().to_string();
+            assert!(e.contains("seed: a TOML integer is at most 9223372036854775807"), "{e}");
+            assert!(e.contains("mmq run --seed"), "{e}");
+        }
+        assert_eq!(
+            spec("world = \"../paper-3x3.toml\"\nseed = 9223372036854775807\n").unwrap().plan.seeds[0],
+            i64::MAX as u64
+        );
     }
 
     /// A few bytes must not describe more than MAX_JOBS jobs (every cell is built in

@@ -171,7 +171,9 @@ impl Given {
                     g.seeds = Some(Spanned::new(span, seeds));
                 }
                 "seed" => {
-                    let seed = u64::deserialize(value.into_inner()).map_err(|e| at(e, "seed"))?;
+                    let seed = u64::deserialize(value.into_inner()).map_err(|e| {
+                        src.error(span.start, "seed", integer_limit("seed", e.message().trim().to_string()))
+                    })?;
                     g.seed = Some(Spanned::new(span, seed));
                 }
                 "settings" if g.prefix == "settings" => {
@@ -268,10 +270,24 @@ impl Source<'_> {
         let message = if message.starts_with("unknown field") {
             format!("{message}; see docs/sweeps.md")
         } else {
-            message
+            integer_limit(&field, message)
         };
         self.error(offset, &field, message)
     }
+}
+
+/// TOML's integers are 64-bit signed: the reader refuses a larger number with a message
+/// that names no limit; this one names it (and, for `seed`, where larger seeds go).
+fn integer_limit(field: &str, message: String) -> String {
+    if !message.contains("too large") {
+        return message;
+    }
+    let hint = if field == "seed" {
+        "use a smaller master seed, or `mmq run --seed`, which takes any up to 2^64 − 1"
+    } else {
+        "use a smaller number"
+    };
+    format!("a TOML integer is at most 9223372036854775807 (2^63 − 1); {hint}")
 }
 
 fn between(s: &str, open: &str, close: &str) -> Option<String> {
