@@ -55,6 +55,16 @@ pub const TOLERANCE: f64 = 1e-10;
 /// reach the tolerance.
 pub const MAX_WORK: u64 = 400_000_000;
 
+/// Sweeps in a row without a smaller change after which the rounds are taken to diverge.
+const DIVERGING: u32 = 64;
+
+/// Rounds in a row that move neither bound after which the rounds give way.
+const STUCK_ROUNDS: u32 = 8;
+
+/// Sweeps of one round after which the rounds give way (the shipped worlds need a few
+/// hundred at most; worlds whose policies seldom reach the goal, millions).
+const ROUND_SWEEPS: u32 = 20_000;
+
 /// The ε-soft ceiling of `world`: bounds and their midpoint, reward per step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ceiling {
@@ -167,12 +177,18 @@ pub fn epsilon_soft_ceiling_until(world: &World, epsilon: f64, stop: &dyn Fn() -
     let (mut lower, mut upper) = (f64::NEG_INFINITY, f64::INFINITY);
     let mut work: u64 = 0;
     let mut gap_before = f64::INFINITY;
+    let mut stuck = 0u32;
     while work < MAX_WORK {
         v[mv.goal] = goal_reward - g;
         steps[mv.goal] = 0.0;
         // Gauss–Seidel sweeps until a sweep changes no value by more than rounding does
         // (or by a thousandth of the tolerance).
         let mut last = f64::INFINITY;
+        // Sweeps in a row that changed values as much as the one before: a greedy policy
+        // that never reaches the goal makes V_g grow without end, and the sweeps never
+        // settle; the relative value iteration below takes over then.
+        let mut rising = 0u32;
+        let mut sweeps = 0u32;
         loop {
             let mut delta = 0.0f64;
             let mut vmax = 0.0f64;
@@ -202,10 +218,21 @@ pub fn epsilon_soft_ceiling_until(world: &World, epsilon: f64, stop: &dyn Fn() -
             let settled = delta <= (1e-3 * TOLERANCE).max(floor);
             // Near rounding, a sweep that changes as much as the one before ends it too.
             let stalled = delta >= last && delta <= 1e3 * floor;
-            if settled || stalled || work >= MAX_WORK {
+            rising = if delta >= last { rising + 1 } else { 0 };
+            sweeps += 1;
+            if settled || stalled || work >= MAX_WORK || rising > DIVERGING || sweeps >= ROUND_SWEEPS {
                 break;
             }
             last = delta;
+        }
+        if rising > DIVERGING {
+            // Its values grew without end: no start for what follows.
+            v.fill(f64::NAN);
+            break;
+        }
+        if sweeps >= ROUND_SWEEPS {
+            // A policy that seldom reaches the goal contracts too slowly for the rounds.
+            break;
         }
         // The bounds this h gives: T h − h at every cell (at the goal, g + V_g(S)).
         let (lo, hi) = span(&mv, &v, eps);
@@ -219,6 +246,12 @@ pub fn epsilon_soft_ceiling_until(world: &World, epsilon: f64, stop: &dyn Fn() -
         }
         // No step left and no bound moved: the rewards' precision is reached.
         if step.abs() <= 1e-3 * TOLERANCE && gap >= gap_before {
+            break;
+        }
+        // Rounds that move no bound (a policy that avoids the goal, where Newton's steps
+        // cycle): the relative value iteration below takes over.
+        stuck = if gap >= gap_before { stuck + 1 } else { 0 };
+        if stuck >= STUCK_ROUNDS {
             break;
         }
         gap_before = gap;
@@ -378,7 +411,9 @@ mod reference {
         let mut h = vec![0.0f64; n];
         let mut th = vec![0.0f64; n];
         let (mut lower, mut upper) = (f64::NEG_INFINITY, f64::INFINITY);
-        for _ in 0..2_000_000 {
+        // Bounds hold at every iteration; a few slowly mixing worlds would need millions
+        // of sweeps to close them, so the reference stops at 50,000.
+        for _ in 0..50_000 {
             let (lo, hi) = span(&mv, &h, eps);
             lower = lower.max(lo);
             upper = upper.min(hi);
@@ -407,7 +442,7 @@ mod reference {
     #[test]
     fn matches_relative_value_iteration_on_random_worlds() {
         let mut rng = rng_from_seed(45);
-        let mut checked = 0;
+        let (mut checked, mut closed) = (0, 0);
         while checked < 60 {
             let (wd, ht) = (rng.random_range(1..9usize), rng.random_range(1..9usize));
             if wd * ht < 2 {
@@ -433,6 +468,7 @@ mod reference {
             let Ok(w) = World::parse(&text, "rand") else { continue };
             let eps = [0.01, 0.05, 0.2, 0.5, 1.0][checked % 5];
             let (lo, hi) = relative_value_iteration(&w, eps);
+            closed += usize::from(hi - lo <= TOLERANCE);
             let c = epsilon_soft_ceiling(&w, eps);
             assert!(c.is_tight(), "ε {eps}: [{}, {}]\n{text}", c.lower, c.upper);
             assert!(
@@ -443,6 +479,9 @@ mod reference {
             );
             checked += 1;
         }
+        // The comparison is with the reference's value, not only its loose bounds, on
+        // nearly every world.
+        assert!(closed >= 50, "the reference closed its bounds on {closed} of {checked} worlds");
     }
 
     /// A 150 × 150 open world (S and G in opposite corners): relative value iteration
