@@ -46,6 +46,7 @@ mod grid;
 mod line;
 mod render;
 mod stroke;
+mod title;
 
 use std::path::PathBuf;
 

@@ -14,6 +14,7 @@ use crate::render::{
     text_size, write_figure,
 };
 use crate::stroke::{MARKERS, Marker, draw_marker, stroke};
+use crate::title::Title;
 
 /// Figure size in pixels.
 const SIZE: (u32, u32) = (800, 560);
@@ -309,6 +310,7 @@ fn legend_row_h() -> f64 {
 
 /// Where everything of a line chart goes, in logical pixels.
 struct Plan {
+    title: Title,
     title_h: f64,
     margin_left: f64,
     margin_right: f64,
@@ -360,7 +362,8 @@ impl LineChart {
 
     fn plan(&self, p: &Prepared) -> Plan {
         let (w, h) = (f64::from(SIZE.0), f64::from(SIZE.1));
-        let title_h = if self.title.is_empty() { 6.0 } else { text_size(&self.title, TITLE_FONT).1 + 22.0 };
+        let title = Title::fit(&self.title, w, TITLE_FONT);
+        let title_h = if title.lines.is_empty() { 6.0 } else { title.height() + 22.0 };
         let tick_w =
             p.y_ticks.iter().map(|&v| text_size(&fmt_tick(v, p.y_step), TICK_FONT).0).fold(0.0, f64::max);
         let tick_h = text_size("0", TICK_FONT).1;
@@ -372,6 +375,7 @@ impl LineChart {
         let mut margin_right = 30.0;
         let entries = self.entries();
         let mut plan = Plan {
+            title,
             title_h,
             margin_left,
             margin_right,
@@ -497,10 +501,7 @@ impl Figure for LineChart {
         let p = self.prepare();
         let plan = self.plan(&p);
 
-        if !self.title.is_empty() {
-            let pos = (ink.p(f64::from(SIZE.0) / 2.0), ink.p(12.0));
-            ink.label(root, &self.title, TITLE_FONT, INK, (HPos::Center, VPos::Top), false, pos)?;
-        }
+        plan.title.draw(root, f64::from(SIZE.0) / 2.0, 12.0, ink)?;
 
         let x_spec = Axis { range: p.x, bold: p.x_ticks.clone(), light: p.x_minor.clone() };
         let y_spec = Axis { range: p.y, bold: p.y_ticks.clone(), light: Vec::new() };
