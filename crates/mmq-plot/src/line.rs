@@ -607,14 +607,12 @@ impl Figure for LineChart {
         for (i, s) in self.series.iter().enumerate() {
             let lines = self.lines(s, &p);
             // A lone point between gaps is invisible as a line: give it a marker.
-            let pts: Vec<(f64, f64)> = if s.stems {
-                let uncut = |&(_, _, top): &(f64, f64, f64)| top > p.y.0 && top < p.y.1;
-                self.stems(s, &p).into_iter().filter(uncut).map(|(x, _, top)| (x, top)).collect()
-            } else if s.markers {
+            // Stems: a marker on every drawn stem whose top the y range does not cut.
+            let pts: Vec<(f64, f64)> = if s.markers || s.stems {
                 s.x.iter()
                     .zip(&s.y)
                     .filter_map(|(&x, &y)| Some((self.px(x)?, y)))
-                    .filter(|&q| q.1.is_finite() && inside(q, &p))
+                    .filter(|&q| q.1.is_finite() && inside(q, &p) && !(s.stems && q.1 == 0.0))
                     .collect()
             } else {
                 lines.into_iter().filter(|l| l.len() == 1).map(|l| l[0]).collect()
