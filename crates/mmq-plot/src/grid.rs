@@ -18,6 +18,7 @@ use crate::colorbar::{Scale, colorbar_width, draw_colorbar};
 use crate::render::{
     BLOCKED, DrawResult, Figure, INK, Ink, NO_DATA, PALETTE, contrast, text_size, tint, viridis, write_figure,
 };
+use crate::title::{TITLE_MARGIN, Title};
 
 /// Bit of action N (up) in a [`PolicyArrows`] cell.
 pub const ARROW_N: u8 = 1 << 0;
@@ -37,6 +38,8 @@ pub fn arrow_bits(actions: impl IntoIterator<Item = usize>) -> u8 {
 /// Longest side of the map in logical pixels.
 const MAP_SIDE: f64 = 560.0;
 const TITLE_FONT: f64 = 24.0;
+/// A long title widens a grid figure up to this width (that of a line chart), then wraps.
+const TITLE_MAX_W: f64 = 800.0;
 pub(crate) const LABEL_FONT: f64 = 18.0;
 pub(crate) const TICK_FONT: f64 = 16.0;
 const LEGEND_FONT: f64 = 16.0;
@@ -302,23 +305,28 @@ struct Layout {
     panel_x: f64,
     fig_w: f64,
     fig_h: f64,
+    title: Title,
 }
 
 impl Layout {
     fn new(g: &GridLayout, title: &str, panel_w: f64, panel_min_h: f64, bottom_legend: bool) -> Layout {
         let (w, h) = (g.width.max(1), g.height.max(1));
         let cell = MAP_SIDE / w.max(h) as f64;
-        let title_h = if title.is_empty() { 10.0 } else { text_size(title, TITLE_FONT).1 + 26.0 };
         let head = 24.0;
         let left = 16.0 + text_size(&g.height.to_string(), TICK_FONT * 0.9).0 + 8.0;
-        let top = title_h + head;
         let (gw, gh) = (cell * w as f64, cell * h as f64);
         let panel_x = left + gw + 28.0;
-        let mut fig_w = if panel_w > 0.0 { panel_x + panel_w + 14.0 } else { left + gw + 24.0 };
-        fig_w = fig_w.max(text_size(title, TITLE_FONT).0 + 40.0);
+        let natural_w = if panel_w > 0.0 { panel_x + panel_w + 14.0 } else { left + gw + 24.0 };
+        // The map decides the width; a long title widens the figure up to the width of a
+        // line chart, then wraps.
+        let title_w = text_size(title, TITLE_FONT).0 + 2.0 * TITLE_MARGIN;
+        let fig_w = natural_w.max(title_w.min(natural_w.max(TITLE_MAX_W))).ceil();
+        let title = Title::fit(title, fig_w, TITLE_FONT);
+        let title_h = if title.lines.is_empty() { 10.0 } else { title.height() + 26.0 };
+        let top = title_h + head;
         let body_h = gh.max(panel_min_h);
         let fig_h = top + body_h + if bottom_legend { 50.0 } else { 20.0 };
-        Layout { w, h, cell, left, top, panel_x, fig_w: fig_w.ceil(), fig_h: fig_h.ceil() }
+        Layout { w, h, cell, left, top, panel_x, fig_w, fig_h: fig_h.ceil(), title }
     }
 
     fn size(&self) -> (u32, u32) {
@@ -344,17 +352,9 @@ impl Layout {
 }
 
 /// Title, row and column numbers.
-fn draw_frame<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    l: &Layout,
-    title: &str,
-    ink: Ink,
-) -> DrawResult<DB> {
+fn draw_frame<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, l: &Layout, ink: Ink) -> DrawResult<DB> {
     root.fill(&WHITE)?;
-    if !title.is_empty() {
-        let pos = (ink.p(l.fig_w / 2.0), ink.p(12.0));
-        ink.label(root, title, TITLE_FONT, INK, (HPos::Center, VPos::Top), false, pos)?;
-    }
+    l.title.draw(root, l.fig_w / 2.0, 12.0, ink)?;
     let font = TICK_FONT * 0.9;
     let grey = RGBColor(90, 90, 90);
     let step = [1usize, 2, 5, 10, 20, 50, 100, 200, 500, 1000]
@@ -505,7 +505,7 @@ impl Figure for GridHeatmap {
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, ink: Ink) -> DrawResult<DB> {
         let l = self.layout();
         let s = self.scale();
-        draw_frame(root, &l, &self.title, ink)?;
+        draw_frame(root, &l, ink)?;
         let fill_of = |i: usize| {
             if self.grid.blocked[i] {
                 BLOCKED
@@ -591,7 +591,7 @@ impl Figure for PolicyArrows {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, ink: Ink) -> DrawResult<DB> {
         let l = self.layout();
-        draw_frame(root, &l, &self.title, ink)?;
+        draw_frame(root, &l, ink)?;
         let mut on_path = vec![false; self.grid.cells()];
         for &c in &self.highlight_path {
             on_path[c] = true;
@@ -655,7 +655,7 @@ impl Figure for ActionProbabilities {
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, ink: Ink) -> DrawResult<DB> {
         let l = self.layout();
-        draw_frame(root, &l, &self.title, ink)?;
+        draw_frame(root, &l, ink)?;
         let sep = WHITE.stroke_width(ink.pu(if l.cell >= 30.0 { 1.0 } else { 0.5 }));
         for i in 0..self.grid.cells() {
             let rect = l.cell_rect(ink, i);

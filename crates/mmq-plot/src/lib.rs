@@ -29,7 +29,9 @@
 //!
 //! Conventions: series colours follow the Okabe–Ito colour-blind-safe palette (a seventh
 //! series and later are dashed), markers change shape per series, bands are the series
-//! colour at 22 % opacity, reference lines are dashed black then grey; colour scales are
+//! colour at 22 % opacity, reference lines are dashed black then grey; a legend sits
+//! inside the plot where it hides no data, otherwise below the chart; titles too wide for
+//! the figure are shrunk a little, then wrapped onto two lines; colour scales are
 //! viridis (perceptually uniform, readable in grey scale). Grid figures draw row 0 at the
 //! top, so action N points up, and number rows and columns from 1 as the paper does.
 //! Text goes to the SVG as text (the viewer's sans-serif font); in the PNG it is drawn
@@ -39,13 +41,16 @@
 //! Architecture invariant: this is the only crate that knows plotters; it knows no
 //! learner, environment or run format — callers hand it numbers.
 
+mod categories;
 mod clip;
 mod colorbar;
 mod geometry;
 mod grid;
+mod legend;
 mod line;
 mod render;
 mod stroke;
+mod title;
 
 use std::path::PathBuf;
 

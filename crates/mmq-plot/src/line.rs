@@ -1,5 +1,7 @@
-//! Line charts: several series (optionally with a 95 % confidence band and markers) and
-//! dashed horizontal reference lines, with a legend placed where it hides the least data.
+//! Line charts: several series (optionally with a 95 % confidence band and markers, or
+//! drawn as stems) and dashed horizontal reference lines, on a numeric, logarithmic or
+//! categorical x axis, with a legend inside the plot where it hides no data and below
+//! the chart otherwise (the plot keeps the figure's width).
 
 use std::path::{Path, PathBuf};
 
@@ -8,12 +10,15 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, VPos};
 
 use crate::PlotError;
+use crate::categories::CategoryLabels;
 use crate::geometry::{clip_segment, decimate_band, decimate_line, min_max};
+use crate::legend::{Entry, LegendBox, draw_legend};
 use crate::render::{
     DrawResult, Figure, INK, Ink, PALETTE, REF_COLORS, fmt_log_tick, fmt_tick, log_ticks, nice_ticks,
     text_size, write_figure,
 };
-use crate::stroke::{MARKERS, Marker, draw_marker, stroke};
+use crate::stroke::{MARKERS, draw_marker, draw_open_marker, stroke};
+use crate::title::Title;
 
 /// Figure size in pixels.
 const SIZE: (u32, u32) = (800, 560);
@@ -21,7 +26,6 @@ const SIZE: (u32, u32) = (800, 560);
 const TITLE_FONT: f64 = 24.0;
 const DESC_FONT: f64 = 20.0;
 const TICK_FONT: f64 = 17.0;
-const LEGEND_FONT: f64 = 16.0;
 
 /// One curve of a [`LineChart`].
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -37,12 +41,18 @@ pub struct Series {
     pub band: Option<(Vec<f64>, Vec<f64>)>,
     /// Draw a marker at every point (for sparse x such as a sweep over λ).
     pub markers: bool,
+    /// Draw each nonzero point as a stem from 0 with its marker on top, and no line (for
+    /// sparse events such as rewards per step); zeros are left out.
+    pub stems: bool,
+    /// Draw the markers as outlines, so a filled marker of another series at the same
+    /// place stays visible inside.
+    pub open_markers: bool,
 }
 
 impl Series {
     /// A plain line.
     pub fn new(name: impl Into<String>, x: Vec<f64>, y: Vec<f64>) -> Self {
-        Self { name: name.into(), x, y, band: None, markers: false }
+        Self { name: name.into(), x, y, ..Self::default() }
     }
 
     /// The same series with a band from `lower` to `upper`.
@@ -54,6 +64,18 @@ impl Series {
     /// The same series with markers.
     pub fn with_markers(mut self) -> Self {
         self.markers = true;
+        self
+    }
+
+    /// The same series drawn as stems (see [`Series::stems`]).
+    pub fn as_stems(mut self) -> Self {
+        self.stems = true;
+        self
+    }
+
+    /// The same series with outlined markers.
+    pub fn with_open_markers(mut self) -> Self {
+        self.open_markers = true;
         self
     }
 }
@@ -96,6 +118,9 @@ pub struct LineChart {
     pub y_range: Option<(f64, f64)>,
     /// Logarithmic x axis (non-positive x values are left out).
     pub x_log: bool,
+    /// Names of categories at x = 1, 2, …: the x axis then has one tick per name,
+    /// labelled by it (wrapped to its share of the width), instead of numbers.
+    pub x_categories: Vec<String>,
 }
 
 impl LineChart {
@@ -131,7 +156,10 @@ impl LineChart {
         let mut ys = Vec::new();
         let mut markers = false;
         for s in &self.series {
-            markers |= s.markers;
+            markers |= s.markers || s.stems;
+            if s.stems {
+                ys.push(0.0);
+            }
             for (i, (&x, &y)) in s.x.iter().zip(&s.y).enumerate() {
                 let Some(x) = self.px(x) else { continue };
                 let mut any = false;
@@ -154,7 +182,9 @@ impl LineChart {
         }
         ys.extend(self.ref_lines.iter().map(|r| r.y).filter(|y| y.is_finite()));
 
+        let n_cat = self.x_categories.len() as f64;
         let (x0, x1) = match min_max(&xs) {
+            _ if n_cat > 0.0 => (0.5, n_cat + 0.5),
             None => (0.0, 1.0),
             Some((a, b)) if b - a <= 1e-12 * a.abs().max(1.0) => {
                 if self.x_log {
@@ -177,7 +207,9 @@ impl LineChart {
             }
             (None, Some((a, b))) => (a - 0.05 * (b - a), b + 0.05 * (b - a)),
         };
-        let (x_ticks, x_minor, x_step) = if self.x_log {
+        let (x_ticks, x_minor, x_step) = if n_cat > 0.0 {
+            ((1..=self.x_categories.len()).map(|i| i as f64).collect(), Vec::new(), 1.0)
+        } else if self.x_log {
             let (b, m) = log_ticks(x0, x1);
             (b, m, f64::NAN)
         } else {
@@ -195,6 +227,9 @@ impl LineChart {
     /// Polylines of a series in plot space, split at missing values and clipped to the
     /// plot rectangle.
     fn lines(&self, s: &Series, p: &Prepared) -> Vec<Vec<(f64, f64)>> {
+        if s.stems {
+            return Vec::new();
+        }
         let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
         let mut prev: Option<(f64, f64)> = None;
         for (&x, &y) in s.x.iter().zip(&s.y) {
@@ -242,6 +277,23 @@ impl LineChart {
     }
 }
 
+impl LineChart {
+    /// Stems of a series in plot space: (x, foot, top), the foot at 0 and both clamped to
+    /// the y range; the top is the point itself unless the range cuts it.
+    fn stems(&self, s: &Series, p: &Prepared) -> Vec<(f64, f64, f64)> {
+        if !s.stems {
+            return Vec::new();
+        }
+        let c = |v: f64| v.clamp(p.y.0, p.y.1);
+        s.x.iter()
+            .zip(&s.y)
+            .filter_map(|(&x, &y)| Some((self.px(x)?, y)))
+            .filter(|&(x, y)| y.is_finite() && y != 0.0 && x >= p.x.0 && x <= p.x.1)
+            .map(|(x, y)| (x, c(0.0), c(y)))
+            .collect()
+    }
+}
+
 /// A linear axis in plot space with the ticks chosen here (plotters' own f64 axis picks
 /// its ticks and cannot be labelled by a formatter once they are given).
 struct Axis {
@@ -284,31 +336,9 @@ fn inside((x, y): (f64, f64), p: &Prepared) -> bool {
     x >= p.x.0 && x <= p.x.1 && y >= p.y.0 && y <= p.y.1
 }
 
-/// One legend row.
-enum Entry {
-    Series { name: String, color: RGBColor, band: bool, marker: Option<Marker>, dashed: bool },
-    Ref { label: String, color: RGBColor },
-}
-
-impl Entry {
-    fn text(&self) -> &str {
-        match self {
-            Entry::Series { name, .. } => name,
-            Entry::Ref { label, .. } => label,
-        }
-    }
-}
-
-/// Legend geometry (logical pixels).
-const LEGEND_PAD: f64 = 10.0;
-const LEGEND_SYMBOL: f64 = 34.0;
-
-fn legend_row_h() -> f64 {
-    text_size("Ag", LEGEND_FONT).1.max(LEGEND_FONT) + 7.0
-}
-
 /// Where everything of a line chart goes, in logical pixels.
 struct Plan {
+    title: Title,
     title_h: f64,
     margin_left: f64,
     margin_right: f64,
@@ -320,10 +350,13 @@ struct Plan {
     y_area: f64,
     x_area: f64,
     tick_w: f64,
+    /// Height of the x tick labels.
     tick_h: f64,
+    categories: CategoryLabels,
     entries: Vec<Entry>,
-    /// Legend box: top-left corner and size.
-    legend: Option<((f64, f64), (f64, f64))>,
+    legend: Option<LegendBox>,
+    /// Height added below the chart for a legend that found no room inside.
+    extra_h: f64,
 }
 
 /// Gap between a tick mark's end and its label; tick length.
@@ -331,6 +364,8 @@ const TICK_LEN: f64 = 6.0;
 const TICK_GAP: f64 = 4.0;
 const MARGIN_TOP: f64 = 8.0;
 const MARGIN_BOTTOM: f64 = 8.0;
+/// Space between the x-axis title and a legend below it.
+const LEGEND_GAP: f64 = 6.0;
 
 impl LineChart {
     fn color(i: usize) -> RGBColor {
@@ -345,8 +380,10 @@ impl LineChart {
                     name: s.name.clone(),
                     color: Self::color(i),
                     band: s.band.is_some(),
-                    marker: s.markers.then_some(MARKERS[i % MARKERS.len()]),
+                    marker: (s.markers || s.stems).then_some(MARKERS[i % MARKERS.len()]),
                     dashed: i >= PALETTE.len(),
+                    stem: s.stems,
+                    open: s.open_markers,
                 });
             }
         }
@@ -360,18 +397,23 @@ impl LineChart {
 
     fn plan(&self, p: &Prepared) -> Plan {
         let (w, h) = (f64::from(SIZE.0), f64::from(SIZE.1));
-        let title_h = if self.title.is_empty() { 6.0 } else { text_size(&self.title, TITLE_FONT).1 + 22.0 };
+        let title = Title::fit(&self.title, w, TITLE_FONT);
+        let title_h = if title.lines.is_empty() { 6.0 } else { title.height() + 22.0 };
         let tick_w =
             p.y_ticks.iter().map(|&v| text_size(&fmt_tick(v, p.y_step), TICK_FONT).0).fold(0.0, f64::max);
-        let tick_h = text_size("0", TICK_FONT).1;
         let y_desc = if self.y_label.is_empty() { 0.0 } else { text_size(&self.y_label, DESC_FONT).1 + 10.0 };
         let x_desc = if self.x_label.is_empty() { 0.0 } else { text_size(&self.x_label, DESC_FONT).1 + 10.0 };
         let y_area = TICK_LEN + TICK_GAP + tick_w + y_desc + 4.0;
-        let x_area = TICK_LEN + TICK_GAP + tick_h + x_desc + 4.0;
         let margin_left = 10.0;
-        let mut margin_right = 30.0;
+        let margin_right = 30.0;
+        let slot_w = (w - margin_right - margin_left - y_area) / self.x_categories.len().max(1) as f64 - 10.0;
+        let categories = CategoryLabels::fit(&self.x_categories, slot_w, TICK_FONT);
+        let tick_h =
+            if self.x_categories.is_empty() { text_size("0", TICK_FONT).1 } else { categories.height() };
+        let x_area = TICK_LEN + TICK_GAP + tick_h + x_desc + 4.0;
         let entries = self.entries();
         let mut plan = Plan {
+            title,
             title_h,
             margin_left,
             margin_right,
@@ -383,15 +425,16 @@ impl LineChart {
             x_area,
             tick_w,
             tick_h,
+            categories,
             entries,
             legend: None,
+            extra_h: 0.0,
         };
         if plan.entries.is_empty() {
             return plan;
         }
-        let text_w = plan.entries.iter().map(|e| text_size(e.text(), LEGEND_FONT).0).fold(0.0, f64::max);
-        let lw = LEGEND_PAD + LEGEND_SYMBOL + 8.0 + text_w + LEGEND_PAD;
-        let lh = LEGEND_PAD * 0.7 * 2.0 + legend_row_h() * plan.entries.len() as f64;
+        let one_column = LegendBox::sized(&plan.entries, 1);
+        let (lw, lh) = (one_column.w, one_column.h);
 
         // Data samples in logical pixels of the plot rectangle.
         let to_px = |(x, y): (f64, f64)| {
@@ -425,6 +468,11 @@ impl LineChart {
                     }
                 }
             }
+            for (x, foot, top) in self.stems(s, p) {
+                let (a, b) = (to_px((x, foot)), to_px((x, top)));
+                let n = ((b.1 - a.1).abs() / 3.0).ceil().clamp(1.0, 400.0) as usize;
+                samples.extend((0..=n).map(|k| (a.0, a.1 + (b.1 - a.1) * k as f64 / n as f64)));
+            }
         }
         for r in &self.ref_lines {
             if r.y.is_finite() && r.y >= p.y.0 && r.y <= p.y.1 {
@@ -448,13 +496,14 @@ impl LineChart {
         let fits = lw < (plan.x1 - plan.x0) * 0.6 && lh < (plan.y1 - plan.y0) * 0.8;
         let best = order.iter().map(|&(i, j)| (xs[i], ys[j])).map(|c| (score(c), c)).min_by_key(|&(s, _)| s);
         match best {
-            Some((0, corner)) if fits => plan.legend = Some((corner, (lw, lh))),
+            Some((0, (x, y))) if fits => plan.legend = Some(LegendBox { x, y, ..one_column }),
             _ => {
-                // No empty spot inside: put the legend right of the plot.
-                margin_right = 16.0 + lw + 16.0;
-                plan.margin_right = margin_right;
-                plan.x1 = w - margin_right;
-                plan.legend = Some(((plan.x1 + 16.0, plan.y0), (lw, lh)));
+                // No empty spot inside: below the chart, in as many columns as fit, so the
+                // plot keeps the figure's width.
+                let b = LegendBox::fitting(&plan.entries, w - 2.0 * margin_left);
+                let y = h - MARGIN_BOTTOM + LEGEND_GAP;
+                plan.legend = Some(LegendBox { x: (w - b.w) / 2.0, y, ..b });
+                plan.extra_h = (LEGEND_GAP + b.h).ceil();
             }
         }
         plan
@@ -489,7 +538,8 @@ impl Figure for LineChart {
     }
 
     fn size(&self) -> (u32, u32) {
-        SIZE
+        let extra = self.plan(&self.prepare()).extra_h;
+        (SIZE.0, SIZE.1 + extra.ceil() as u32)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>, ink: Ink) -> DrawResult<DB> {
@@ -497,10 +547,7 @@ impl Figure for LineChart {
         let p = self.prepare();
         let plan = self.plan(&p);
 
-        if !self.title.is_empty() {
-            let pos = (ink.p(f64::from(SIZE.0) / 2.0), ink.p(12.0));
-            ink.label(root, &self.title, TITLE_FONT, INK, (HPos::Center, VPos::Top), false, pos)?;
-        }
+        plan.title.draw(root, f64::from(SIZE.0) / 2.0, 12.0, ink)?;
 
         let x_spec = Axis { range: p.x, bold: p.x_ticks.clone(), light: p.x_minor.clone() };
         let y_spec = Axis { range: p.y, bold: p.y_ticks.clone(), light: Vec::new() };
@@ -508,7 +555,7 @@ impl Figure for LineChart {
             .margin_top(ink.p(plan.title_h + MARGIN_TOP))
             .margin_left(ink.p(plan.margin_left))
             .margin_right(ink.p(plan.margin_right))
-            .margin_bottom(ink.p(MARGIN_BOTTOM))
+            .margin_bottom(ink.p(MARGIN_BOTTOM + plan.extra_h))
             .x_label_area_size(ink.p(plan.x_area))
             .y_label_area_size(ink.p(plan.y_area))
             .build_cartesian_2d(x_spec, y_spec)?;
@@ -547,27 +594,37 @@ impl Figure for LineChart {
                 }
             }
         }
+        if self.series.iter().any(|s| s.stems) && p.y.0 < 0.0 && p.y.1 > 0.0 {
+            let zero = [chart.backend_coord(&(p.x.0, 0.0)), chart.backend_coord(&(p.x.1, 0.0))];
+            root.draw(&PathElement::new(zero.to_vec(), INK.mix(0.5).stroke_width(ink.pu(1.0))))?;
+        }
+        for (i, s) in self.series.iter().enumerate() {
+            for (x, foot, top) in self.stems(s, &p) {
+                let px = [chart.backend_coord(&(x, foot)), chart.backend_coord(&(x, top))];
+                root.draw(&PathElement::new(px.to_vec(), Self::color(i).stroke_width(ink.pu(1.8))))?;
+            }
+        }
         for (i, s) in self.series.iter().enumerate() {
             let lines = self.lines(s, &p);
             // A lone point between gaps is invisible as a line: give it a marker.
-            let pts: Vec<(f64, f64)> = if s.markers {
+            // Stems: a marker on every drawn stem whose top the y range does not cut.
+            let pts: Vec<(f64, f64)> = if s.markers || s.stems {
                 s.x.iter()
                     .zip(&s.y)
                     .filter_map(|(&x, &y)| Some((self.px(x)?, y)))
-                    .filter(|&q| q.1.is_finite() && inside(q, &p))
+                    .filter(|&q| q.1.is_finite() && inside(q, &p) && !(s.stems && q.1 == 0.0))
                     .collect()
             } else {
                 lines.into_iter().filter(|l| l.len() == 1).map(|l| l[0]).collect()
             };
+            let (m, color) = (MARKERS[i % MARKERS.len()], Self::color(i));
             for q in pts {
-                draw_marker(
-                    root,
-                    MARKERS[i % MARKERS.len()],
-                    chart.backend_coord(&q),
-                    ink.p(5.0),
-                    Self::color(i),
-                    ink,
-                )?;
+                let at = chart.backend_coord(&q);
+                if s.open_markers {
+                    draw_open_marker(root, m, at, ink.p(6.0), color, ink)?;
+                } else {
+                    draw_marker(root, m, at, ink.p(if s.stems { 4.5 } else { 5.0 }), color, ink)?;
+                }
             }
         }
 
@@ -577,10 +634,18 @@ impl Figure for LineChart {
         root.draw(&Rectangle::new([(fx0, fy0), (fx1, fy1)], INK.stroke_width(ink.pu(1.2))))?;
         let tick = INK.stroke_width(ink.pu(1.2));
         let tl = ink.p(TICK_LEN);
-        for &v in &p.x_ticks {
+        for (i, &v) in p.x_ticks.iter().enumerate() {
             let x = chart.backend_coord(&(v, p.y.0)).0;
             root.draw(&PathElement::new(vec![(x, fy1), (x, fy1 + tl)], tick))?;
             let pos = (x, fy1 + tl + ink.p(TICK_GAP));
+            if let Some(lines) = plan.categories.lines.get(i) {
+                let c = &plan.categories;
+                for (k, line) in lines.iter().enumerate() {
+                    let pos = (x, pos.1 + ink.p(c.pitch() * k as f64));
+                    ink.label(root, line, c.font, INK, (HPos::Center, VPos::Top), false, pos)?;
+                }
+                continue;
+            }
             ink.label(
                 root,
                 &self.x_tick_label(&p, v),
@@ -635,64 +700,11 @@ impl Figure for LineChart {
                 c,
             )?;
         }
-        if let Some(((x, y), (w, h))) = plan.legend {
-            draw_legend(root, &plan.entries, (x, y, w, h), ink)?;
+        if let Some(b) = plan.legend {
+            draw_legend(root, &plan.entries, b, ink)?;
         }
         Ok(())
     }
-}
-
-/// Draws the legend box at (x, y) of size (w, h), logical pixels.
-fn draw_legend<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    entries: &[Entry],
-    (x, y, w, h): (f64, f64, f64, f64),
-    ink: Ink,
-) -> DrawResult<DB> {
-    let r = [(ink.p(x), ink.p(y)), (ink.p(x + w), ink.p(y + h))];
-    root.draw(&Rectangle::new(r, WHITE.filled()))?;
-    root.draw(&Rectangle::new(r, RGBColor(150, 150, 150).stroke_width(ink.pu(1.0))))?;
-    let row_h = legend_row_h();
-    for (i, e) in entries.iter().enumerate() {
-        let cy = ink.p(y + LEGEND_PAD * 0.7 + row_h * (i as f64 + 0.5));
-        let sx0 = ink.p(x + LEGEND_PAD);
-        let sx1 = ink.p(x + LEGEND_PAD + LEGEND_SYMBOL);
-        let dashes = |color: &RGBColor, width: f64, seg: f64, gap: f64| -> DrawResult<DB> {
-            let style = color.stroke_width(ink.pu(width));
-            let mut a = sx0;
-            while a < sx1 {
-                root.draw(&PathElement::new(vec![(a, cy), ((a + ink.p(seg)).min(sx1), cy)], style))?;
-                a += ink.p(seg + gap);
-            }
-            Ok(())
-        };
-        match e {
-            Entry::Series { color, band, marker, dashed, .. } => {
-                if *band {
-                    let half = ink.p(row_h * 0.33);
-                    root.draw(&Rectangle::new(
-                        [(sx0, cy - half), (sx1, cy + half)],
-                        color.mix(0.22).filled(),
-                    ))?;
-                }
-                if *dashed {
-                    dashes(color, 2.5, 12.0, 5.0)?;
-                } else {
-                    root.draw(&PathElement::new(
-                        vec![(sx0, cy), (sx1, cy)],
-                        color.stroke_width(ink.pu(2.5)),
-                    ))?;
-                }
-                if let Some(m) = marker {
-                    draw_marker(root, *m, ((sx0 + sx1) / 2, cy), ink.p(5.0), *color, ink)?;
-                }
-            }
-            Entry::Ref { color, .. } => dashes(color, 1.8, 9.0, 6.0)?,
-        }
-        let pos = (sx1 + ink.p(8.0), cy);
-        ink.label(root, e.text(), LEGEND_FONT, INK, (HPos::Left, VPos::Center), false, pos)?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]
@@ -728,5 +740,46 @@ mod tests {
         assert_eq!(l.len(), 2);
         assert_eq!(l[0], vec![(0.0, 0.0), (1.0, 1.0)]);
         assert_eq!(l[1], vec![(3.0, 1.0), (3.25, 2.0)]);
+    }
+
+    #[test]
+    fn stems_leave_zeros_out_and_stand_on_zero() {
+        let c = LineChart {
+            series: vec![Series::new("r", vec![1.0, 2.0, 3.0, 4.0], vec![0.0, 10.0, 0.0, -1.0]).as_stems()],
+            ..LineChart::default()
+        };
+        let p = c.prepare();
+        assert!(c.lines(&c.series[0], &p).is_empty());
+        assert_eq!(c.stems(&c.series[0], &p), vec![(2.0, 0.0, 10.0), (4.0, 0.0, -1.0)]);
+    }
+
+    #[test]
+    fn a_legend_without_room_inside_goes_below_and_keeps_the_width() {
+        let x: Vec<f64> = (0..50).map(f64::from).collect();
+        let mut c = LineChart::new("t", "x", "y");
+        for k in 0..6 {
+            let y = x.iter().map(|v| (v * 0.3 + f64::from(k)).sin()).collect();
+            c.series.push(Series::new(format!("a rather long series name number {k}"), x.clone(), y));
+        }
+        let p = c.prepare();
+        let plan = c.plan(&p);
+        let b = plan.legend.unwrap();
+        assert!(plan.extra_h > 0.0 && b.y > plan.y1, "{b:?}");
+        assert_eq!(plan.x1, f64::from(SIZE.0) - 30.0);
+        assert!(b.x >= 0.0 && b.x + b.w <= f64::from(SIZE.0));
+        assert_eq!(c.size().1, SIZE.1 + plan.extra_h as u32);
+    }
+
+    #[test]
+    fn categories_get_one_tick_each() {
+        let mut c = LineChart::new("t", "setting", "y");
+        c.x_categories =
+            vec!["grid · poisson:13".into(), "robot · exponential:48s · profile=realistic".into()];
+        c.series.push(Series::new("a", vec![1.0, 2.0], vec![3.0, 4.0]).with_markers());
+        let p = c.prepare();
+        assert_eq!(p.x_ticks, vec![1.0, 2.0]);
+        assert_eq!(p.x, (0.5, 2.5));
+        let plan = c.plan(&p);
+        assert_eq!(plan.categories.lines[0], vec!["grid · poisson:13"]);
     }
 }

@@ -83,7 +83,8 @@ fn render_svg<F: Figure>(fig: &F, (w, h): (u32, u32)) -> Result<String, String> 
     Ok(text)
 }
 
-fn render_png<F: Figure>(fig: &F, (w, h): (u32, u32)) -> Result<Vec<u8>, String> {
+/// The figure as 8-bit RGB rows of `w` × `h` pixels (supersampled, then box-filtered).
+pub(crate) fn render_rgb<F: Figure>(fig: &F, (w, h): (u32, u32)) -> Result<Vec<u8>, String> {
     let s = PNG_SUPERSAMPLE;
     let (big_w, big_h) = (w * s, h * s);
     let mut big = vec![255u8; (big_w * big_h * 3) as usize];
@@ -108,9 +109,14 @@ fn render_png<F: Figure>(fig: &F, (w, h): (u32, u32)) -> Result<Vec<u8>, String>
             }
         }
     }
+    Ok(small)
+}
+
+fn render_png<F: Figure>(fig: &F, (w, h): (u32, u32)) -> Result<Vec<u8>, String> {
+    let small = render_rgb(fig, (w, h))?;
     let mut out = Vec::new();
     {
-        let mut enc = png::Encoder::new(&mut out, w as u32, h as u32);
+        let mut enc = png::Encoder::new(&mut out, w, h);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         let mut writer = enc.write_header().map_err(|e| e.to_string())?;

@@ -146,3 +146,28 @@ pub(crate) fn draw_marker<DB: DrawingBackend>(
         }
     }
 }
+
+/// A marker drawn as an outline in `color`, nothing inside, so a filled marker at the
+/// same place stays visible within it (`r`: half its width).
+pub(crate) fn draw_open_marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    m: Marker,
+    (x, y): (i32, i32),
+    r: i32,
+    color: RGBColor,
+    ink: Ink,
+) -> DrawResult<DB> {
+    let edge = color.stroke_width(ink.pu(2.0));
+    if let Marker::Circle = m {
+        return area.draw(&Circle::new((x, y), r, edge));
+    }
+    let s = r;
+    let mut pts = match m {
+        Marker::Diamond => vec![(x, y - s), (x + s, y), (x, y + s), (x - s, y)],
+        Marker::Triangle => vec![(x, y - s), (x + s, y + s * 3 / 4), (x - s, y + s * 3 / 4)],
+        Marker::TriangleDown => vec![(x, y + s), (x + s, y - s * 3 / 4), (x - s, y - s * 3 / 4)],
+        _ => vec![(x - s, y - s), (x + s, y - s), (x + s, y + s), (x - s, y + s)],
+    };
+    pts.push(pts[0]);
+    area.draw(&PathElement::new(pts, edge))
+}

@@ -543,7 +543,9 @@ fn delay_window(mmq: &Group, rep: &mut Doc, stop: &AtomicBool, sfx: &str) -> Res
     if steps.is_empty() {
         return Ok(());
     }
-    let x: Vec<f64> = steps.iter().map(|s| s.t as f64).collect();
+    // Stems of the nonzero rewards only; earned a quarter step left and filled, received a
+    // quarter step right and outlined, so both show when they fall on the same step.
+    let at = |dx: f64| -> Vec<f64> { steps.iter().map(|s| s.t as f64 + dx).collect() };
     let unit = if mmq.cfg.env == EnvKind::Robot { "primitive" } else { "step" };
     let mut chart = LineChart::new(
         format!("Fig. 6{sfx}: rewards earned and received, MMQ seed {}", first.seed),
@@ -551,15 +553,17 @@ fn delay_window(mmq: &Group, rep: &mut Doc, stop: &AtomicBool, sfx: &str) -> Res
         "reward at the step",
     );
     chart.series.push(
-        Series::new("earned (emitted)", x.clone(), steps.iter().map(|s| s.earned).collect()).with_markers(),
+        Series::new("earned (emitted)", at(-0.25), steps.iter().map(|s| s.earned).collect()).as_stems(),
     );
     chart.series.push(
-        Series::new("received (delivered)", x, steps.iter().map(|s| s.received).collect()).with_markers(),
+        Series::new("received (delivered)", at(0.25), steps.iter().map(|s| s.received).collect())
+            .as_stems()
+            .with_open_markers(),
     );
     rep.figure(
         chart.write(&rep.path(&format!("fig6-delay{sfx}")))?,
         &format!(
-            "Fig. 6{sfx}: the last {} {unit}s of the first MMQ seed — each +10 (goal) or −1 (wall) arrives a random delay after it was earned, sometimes several in one {unit} (summed)",
+            "Fig. 6{sfx}: the last {} {unit}s of the first MMQ seed — each +10 (goal) or −1 (wall) arrives a random delay after it was earned, sometimes several in one {unit} (summed). Only nonzero rewards are drawn, as stems from 0: earned as filled circles, received as open squares a half {unit} to their right, so a reward earned and one received in the same {unit} show side by side, the circle inside the square, and the delay reads as the gap from a circle to its square",
             steps.len()
         ),
     );

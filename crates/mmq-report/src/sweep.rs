@@ -168,7 +168,8 @@ fn mean_of(stats: &[CellStats], c: usize, metric: &str) -> Option<mmq_core::stat
     stats.iter().find(|s| s.cell == c)?.metrics.get(metric).copied().filter(|m| m.mean.is_finite())
 }
 
-/// Fraction of the optimum per setting (x: the setting's number), a series per learner.
+/// Fraction of the optimum per setting (a categorical x axis labelled by the settings'
+/// names), a series per learner.
 fn gap_figure(
     plan: &Plan,
     stats: &[CellStats],
@@ -178,9 +179,18 @@ fn gap_figure(
     let metric = "perf/fraction_of_optimum";
     let mut chart = LineChart::new(
         format!("{}: fraction of the optimum per setting", plan.name),
-        "setting (numbered as in the tables)",
+        "setting",
         "fraction of optimum (%)",
     );
+    // Names as in the tables, without the placeholder of an axis a setting does not have.
+    chart.x_categories = sets
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let parts: Vec<&str> = s.0.split(" · ").filter(|p| *p != "–").collect();
+            format!("{}. {}", i + 1, parts.join(" · "))
+        })
+        .collect();
     for l in learner_labels(sets) {
         let pts: Vec<(f64, mmq_core::stats::MeanCi)> = sets
             .iter()
