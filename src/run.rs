@@ -60,15 +60,10 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
 
 /// One `--set KEY=VALUE`: the value as TOML (a number, a boolean, a quoted string), else
 /// as text (`poisson:13`).
-fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
-    let Some((key, value)) =
-        kv.split_once('=').map(|(k, v)| (k.trim(), v.trim())).filter(|(k, _)| !k.is_empty())
-    else {
-        return Err(crate::input_error(format!(
-            "--set `{kv}`: not KEY=VALUE; write e.g. --set optimism_confidence=2"
-        )));
-    };
-    Ok((key, mmq_core::text_value::value_from_text(value)))
+pub(crate) fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
+    mmq_core::text_value::key_value(kv).ok_or_else(|| {
+        crate::input_error(format!("--set `{kv}`: not KEY=VALUE; write e.g. --set optimism_confidence=2"))
+    })
 }
 
 /// Runs `mmq run`.

@@ -9,7 +9,7 @@ use std::time::Instant;
 use clap::{Args, Subcommand};
 use mmq_lab::Control;
 use mmq_lab::suite::{Agent, Suite, SuiteRun, results_of_dir, write_results};
-use mmq_lab::sweep::{Shard, SweepEvent, merge, run_sweep};
+use mmq_lab::sweep::{Shard, SweepEvent, run_sweep};
 use mmq_report::Progress as _;
 use mmq_report::terminal as say;
 
@@ -76,33 +76,19 @@ enum SuiteAction {
 pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
     match a.action {
         SuiteAction::Run { learner, set, tier, suite, out, shard, quiet } => {
-            let settings = set.iter().map(|kv| setting(kv)).collect::<Result<Vec<_>, _>>()?;
-            let agent = Agent { learner, settings };
-            let suite = if suite.ends_with(".toml") {
-                Suite::load(std::path::Path::new(&suite))?
-            } else {
-                Suite::builtin(&suite)?
-            };
-            run(&suite, &tier, &agent, &out, shard.as_deref(), quiet, stop)
+            let settings = set.iter().map(|kv| crate::run::setting(kv)).collect::<Result<Vec<_>, _>>()?;
+            let agent =
+                Agent { learner, settings: settings.into_iter().map(|(k, v)| (k.to_string(), v)).collect() };
+            run(&Suite::open(&suite)?, &tier, &agent, &out, shard.as_deref(), quiet, stop)
         }
         SuiteAction::Merge { dirs, out } => {
-            let first = SuiteRun::read(dirs.first().ok_or_else(|| crate::input_error("give a directory"))?)?;
-            for d in &dirs[1..] {
-                if SuiteRun::read(d)? != first {
-                    return Err(crate::input_error(format!(
-                        "{}: holds another agent, tier or suite than {}; merge the shards of one run",
-                        d.join("suite.json").display(),
-                        dirs[0].display()
-                    )));
-                }
-            }
-            first.claim(&out)?;
-            let (said, missing) = say::merged(dirs.len(), &merge(&dirs, &out)?);
+            let (merged, results) = SuiteRun::merge_dirs(&dirs, &out)?;
+            let (said, missing) = say::merged(dirs.len(), &merged);
             println!("{said}");
             if let Some(m) = missing {
                 eprintln!("{m}");
             }
-            println!("wrote {}", write_results(&out, &results_of_dir(&out)?)?.display());
+            println!("wrote {}", results.display());
             Ok(())
         }
         SuiteAction::Report { files, out } => {
@@ -115,14 +101,6 @@ pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
             );
             Ok(())
         }
-    }
-}
-
-/// One `--set KEY=VALUE`: the value as TOML (a number, a boolean), else as text.
-fn setting(kv: &str) -> Result<(String, toml::Value), Failure> {
-    match kv.split_once('=').map(|(k, v)| (k.trim(), v.trim())) {
-        Some((k, v)) if !k.is_empty() => Ok((k.to_string(), mmq_core::text_value::value_from_text(v))),
-        _ => Err(crate::input_error(format!("--set `{kv}`: not KEY=VALUE; write e.g. --set max_delay=30"))),
     }
 }
 
@@ -156,7 +134,7 @@ fn run(
         }
         SweepEvent::JobDone { cell_index, seed, finished, of, wall_s, .. } => {
             let task = &run.tasks[*cell_index];
-            pb.notice(&format!("[{finished}/{of}] {task} seed {seed}: {wall_s:.2} s"));
+            pb.line(&format!("[{finished}/{of}] {task} seed {seed}: {wall_s:.2} s"));
         }
     };
     let outcome = run_sweep(&spec, out, shard, ctl, &events);

@@ -12,9 +12,26 @@ pub fn value_from_text(raw: &str) -> Value {
         .unwrap_or_else(|| Value::String(raw.to_string()))
 }
 
+/// `KEY=VALUE` (spaces around either trimmed) as the key and [`value_from_text`] of the
+/// value; `None` without an `=` or with an empty key.
+pub fn key_value(text: &str) -> Option<(&str, Value)> {
+    let (key, value) = text.split_once('=')?;
+    let key = key.trim();
+    (!key.is_empty()).then(|| (key, value_from_text(value.trim())))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn key_value_pairs() {
+        assert_eq!(key_value(" alpha = 0.5"), Some(("alpha", Value::Float(0.5))));
+        assert_eq!(key_value("delay=poisson:13"), Some(("delay", Value::String("poisson:13".into()))));
+        assert_eq!(key_value("a=b=c"), Some(("a", Value::String("b=c".into()))));
+        assert_eq!(key_value("=1"), None);
+        assert_eq!(key_value("alpha"), None);
+    }
 
     #[test]
     fn toml_values_and_bare_text() {

@@ -41,12 +41,7 @@ fn lab_err(arg: &str, e: LabError) -> PyErr {
 
 /// The suite `suite` (a shipped version or a suite file), with only `tasks` when given.
 fn load_suite(suite: &str, tasks: Option<&[String]>) -> PyResult<(Suite, bool)> {
-    let s = if suite.ends_with(".toml") {
-        Suite::load(std::path::Path::new(suite))
-    } else {
-        Suite::builtin(suite)
-    }
-    .map_err(|e| config_err("suite", e))?;
+    let s = Suite::open(suite).map_err(|e| config_err("suite", e))?;
     match tasks {
         Some(t) => {
             let only = s.only(t).map_err(|e| config_err("tasks", e))?;

@@ -116,6 +116,11 @@ impl Suite {
         Suite::parse(text, &Path::new("worlds/suites").join(version).join("suite.toml"))
     }
 
+    /// A shipped suite by version (`v1`), or the suite file `name` when it ends in `.toml`.
+    pub fn open(name: &str) -> Result<Suite, LabError> {
+        if name.ends_with(".toml") { Suite::load(Path::new(name)) } else { Suite::builtin(name) }
+    }
+
     /// Reads a suite file.
     pub fn load(path: &Path) -> Result<Suite, LabError> {
         let text =
@@ -370,6 +375,32 @@ impl SuiteRun {
         }
         let text = serde_json::to_string_pretty(self).unwrap_or_default() + "\n";
         crate::output::write_atomic(&dir.join("suite.json"), text.as_bytes())
+    }
+
+    /// Merges the output directories of the shards of one suite run into `out` (they
+    /// must all hold the same run) and writes its results file; the merge's outcome and
+    /// the results file's path.
+    pub fn merge_dirs(
+        dirs: &[PathBuf],
+        out: &Path,
+    ) -> Result<(crate::sweep::MergeOutcome, PathBuf), LabError> {
+        let first =
+            dirs.first().ok_or_else(|| LabError::param("merge", "nothing", "give at least one directory"))?;
+        let run = SuiteRun::read(first)?;
+        for d in &dirs[1..] {
+            if SuiteRun::read(d)? != run {
+                return Err(LabError::Config {
+                    file: d.join("suite.json").display().to_string(),
+                    message: format!(
+                        "holds another agent, tier or suite than {}; merge the shards of one run",
+                        first.display()
+                    ),
+                });
+            }
+        }
+        run.claim(out)?;
+        let merged = crate::sweep::merge(dirs, out)?;
+        Ok((merged, write_results(out, &results_of_dir(out)?)?))
     }
 
     /// Reads `DIR/suite.json`.
