@@ -35,6 +35,14 @@ impl Bars {
         Bars { quiet, current: RwLock::new(None) }
     }
 
+    /// A line of progress on stderr (a finished job), with the bar out of the way; not
+    /// shown when quiet (notices are).
+    pub fn line(&self, text: &str) {
+        if !self.quiet {
+            mmq_report::Progress::notice(self, text);
+        }
+    }
+
     fn current(&self) -> RwLockReadGuard<'_, Option<Mode>> {
         self.current.read().unwrap_or_else(PoisonError::into_inner)
     }

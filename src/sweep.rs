@@ -55,7 +55,7 @@ pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
         SweepEvent::JobDone { .. } if a.quiet => {}
         SweepEvent::JobDone { cell, cell_index, seed, finished, of, wall_s } => {
             let axes = say::cell_axes(plan, *cell_index);
-            pb.notice(&format!("[{finished}/{of}] cell {cell} ({axes}) seed {seed}: {wall_s:.2} s"));
+            pb.line(&format!("[{finished}/{of}] cell {cell} ({axes}) seed {seed}: {wall_s:.2} s"));
         }
     };
     let outcome = run_sweep(&spec, &out, shard, ctl, &events)?;

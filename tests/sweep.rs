@@ -62,7 +62,10 @@ mod shards {
         let d = tempfile::tempdir().unwrap();
         let spec = write_spec(d.path(), "paper-3x3.toml", SMALL);
         let whole = d.path().join("whole");
-        let out = ok(mmq(&["--threads", "2", "sweep", &spec, "--out", &s(&whole), "-q"]));
+        let o = mmq(&["--threads", "2", "sweep", &spec, "--out", &s(&whole), "-q"]);
+        // -q: no line per finished job.
+        assert!(!text(&o).1.contains("] cell "), "{}", text(&o).1);
+        let out = ok(o);
         assert_eq!(ran_count(&out), (36, 0), "{out}");
         let mut shard_dirs = Vec::new();
         let mut total = 0;

@@ -663,10 +663,20 @@ pub fn run_all(
     observers: &ObserverFactory<'_>,
     ctl: Control<'_>,
 ) -> Result<RunOutcome, LabError> {
-    let dist = check_run(cfg, world)?;
+    run_checked(cfg, world, &check_run(cfg, world)?, observers, ctl)
+}
+
+/// [`run_all`] of a configuration [`check_run`] passed, with the delay it parsed.
+pub(crate) fn run_checked(
+    cfg: &RunConfig,
+    world: &World,
+    dist: &DelayDist,
+    observers: &ObserverFactory<'_>,
+    ctl: Control<'_>,
+) -> Result<RunOutcome, LabError> {
     let seeds = cfg.seed_list();
     let jobs: Vec<Job<'_>> =
-        seeds.iter().map(|&seed| Job { cfg, world, dist: &dist, seed, learner: None }).collect();
+        seeds.iter().map(|&seed| Job { cfg, world, dist, seed, learner: None }).collect();
     let out: Vec<SeedResult> =
         run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
     let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
