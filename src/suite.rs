@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use clap::{Args, Subcommand};
 use mmq_lab::Control;
-use mmq_lab::suite::{Agent, Suite, SuiteRun, results_of_dir, write_results};
-use mmq_lab::sweep::{Shard, SweepEvent, run_sweep};
+use mmq_lab::suite::{Agent, Suite, SuiteRun, reference, results_of_dir, write_results};
+use mmq_lab::sweep::{CellLearners, Shard, SweepEvent, SweepSpec, run_sweep_with};
 use mmq_report::Progress as _;
 use mmq_report::terminal as say;
 
@@ -50,6 +50,25 @@ enum SuiteAction {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Run the reference, the grid MDP's optimal policy (`grid-optimal`), on every task of
+    /// a tier and write OUT/results.json; `suite report` shows each agent's fraction of it.
+    Reference {
+        /// The tier: lite or full.
+        #[arg(long)]
+        tier: String,
+        /// The suite: a shipped version (v1) or a suite file.
+        #[arg(long, default_value = "v1")]
+        suite: String,
+        /// Output directory; finished seeds there are skipped (resume).
+        #[arg(long, short)]
+        out: PathBuf,
+        /// Run only the K-th of N disjoint parts of the seeds (1 <= K <= N), e.g. 2/8.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// No progress bar and no line per finished seed.
+        #[arg(long, short)]
+        quiet: bool,
+    },
     /// Merge the output directories of shards of one agent and tier into --out and write
     /// its results.json.
     Merge {
@@ -61,7 +80,8 @@ enum SuiteAction {
         out: PathBuf,
     },
     /// The leaderboard of several agents' results files (one suite and tier): leaderboard.md,
-    /// CSV files and figures in --out.
+    /// CSV files and figures in --out. A results file of `suite reference` among them is the
+    /// reference; without one, the shipped suites' own reference is used.
     Report {
         /// Results files (results.json), one per agent.
         #[arg(required = true)]
@@ -79,7 +99,21 @@ pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
             let settings = set.iter().map(|kv| crate::run::setting(kv)).collect::<Result<Vec<_>, _>>()?;
             let agent =
                 Agent { learner, settings: settings.into_iter().map(|(k, v)| (k.to_string(), v)).collect() };
-            run(&Suite::open(&suite)?, &tier, &agent, &out, shard.as_deref(), quiet, stop)
+            let suite = Suite::open(&suite)?;
+            let spec = suite.spec(&tier, &agent)?;
+            let run = SuiteRun {
+                suite: suite.version.clone(),
+                tier: tier.clone(),
+                agent: agent.name(),
+                tasks: suite.task_names(),
+                subset: false,
+            };
+            go(&spec, &run, None, &out, shard.as_deref(), quiet, stop)
+        }
+        SuiteAction::Reference { tier, suite, out, shard, quiet } => {
+            let (spec, run) = Suite::open(&suite)?.reference_spec(&tier)?;
+            let learners = reference::learners(&spec);
+            go(&spec, &run, Some(&learners), &out, shard.as_deref(), quiet, stop)
         }
         SuiteAction::Merge { dirs, out } => {
             let (merged, results) = SuiteRun::merge_dirs(&dirs, &out)?;
@@ -104,24 +138,18 @@ pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
     }
 }
 
-fn run(
-    suite: &Suite,
-    tier: &str,
-    agent: &Agent,
+/// Runs the jobs of `spec` for the suite run `run` into `out` (learners from `learners`
+/// when given, else the spec's) and writes its results file.
+fn go(
+    spec: &SweepSpec,
+    run: &SuiteRun,
+    learners: Option<&CellLearners<'_>>,
     out: &std::path::Path,
     shard: Option<&str>,
     quiet: bool,
     stop: &AtomicBool,
 ) -> Result<(), Failure> {
     let shard = shard.map(Shard::parse).transpose()?;
-    let spec = suite.spec(tier, agent)?;
-    let run = SuiteRun {
-        suite: suite.version.clone(),
-        tier: tier.into(),
-        agent: agent.name(),
-        tasks: suite.task_names(),
-        subset: false,
-    };
     run.claim(out)?;
     let clock = Instant::now();
     let pb = Bars::new(quiet);
@@ -137,7 +165,7 @@ fn run(
             pb.line(&format!("[{finished}/{of}] {task} seed {seed}: {wall_s:.2} s"));
         }
     };
-    let outcome = run_sweep(&spec, out, shard, ctl, &events);
+    let outcome = run_sweep_with(spec, out, shard, ctl, &events, learners);
     pb.end();
     let outcome = outcome?;
     let results = results_of_dir(out)?;

@@ -223,6 +223,49 @@ fn the_leaderboard_compares_two_agents() {
     assert!(board.join("profiles.png").is_file() && board.join("per-task.svg").is_file());
 }
 
+/// `mmq suite reference` runs the grid-optimal policy on every task; given to the
+/// leaderboard beside an agent, it is not ranked but shown per task with each agent's
+/// mean as a fraction of it. Two references, or only a reference, are refused.
+#[test]
+fn the_reference_is_shown_beside_the_agents() {
+    let tmp = tempfile::tempdir().unwrap();
+    let suite = tiny(tmp.path());
+    let (q, r, board) = (tmp.path().join("q"), tmp.path().join("ref"), tmp.path().join("board"));
+    ok(run(&suite, "q", &q, &[]));
+    ok(mmq(&["suite", "reference", "--suite", &suite, "--tier", "lite", "--out", &s(&r), "-q"]));
+    let refs = results(&r);
+    assert_eq!(refs["agent"], "grid-optimal");
+    validate_with_schema(&r.join("results.json"));
+    // On the grid the optimal policy with ε = 0.05 earns close to the optimum.
+    for t in refs["tasks"].as_array().unwrap() {
+        for seed in t["seeds"].as_array().unwrap() {
+            let f = seed["fraction_of_optimum"].as_f64().unwrap();
+            assert!(f > 0.8 && f < 1.05, "{}: {f}", t["task"]);
+        }
+    }
+    let (qf, rf) = (s(&q.join("results.json")), s(&r.join("results.json")));
+    let said = ok(mmq(&["suite", "report", &qf, &rf, "--out", &s(&board)]));
+    assert!(said.contains("1 agent(s) on 3 task(s)"), "{said}");
+    let md = std::fs::read_to_string(board.join("leaderboard.md")).unwrap();
+    assert!(md.contains("## Reference: the grid-optimal policy") && md.contains("ref/results.json"), "{md}");
+    let csv = std::fs::read_to_string(board.join("reference.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 3, "{csv}");
+    let mean = |v: &serde_json::Value, task: usize| {
+        let seeds = v["tasks"][task]["seeds"].as_array().unwrap();
+        seeds.iter().map(|x| x["fraction_of_optimum"].as_f64().unwrap()).sum::<f64>() / seeds.len() as f64
+    };
+    let row: Vec<f64> =
+        csv.lines().nth(1).unwrap().split(',').skip(2).take(3).map(|x| x.parse().unwrap()).collect();
+    let (agent, reference) = (mean(&results(&q), 0), mean(&refs, 0));
+    assert!((row[0] - agent).abs() < 1e-12 && (row[1] - reference).abs() < 1e-12, "{row:?}");
+    assert!((row[2] - agent / reference).abs() < 1e-12, "{row:?}");
+    let two = mmq(&["suite", "report", &qf, &rf, &rf, "--out", &s(&board)]);
+    assert_eq!(two.status.code(), Some(3), "{}", text(&two).1);
+    assert!(text(&two).1.contains("second reference"), "{}", text(&two).1);
+    let alone = mmq(&["suite", "report", &rf, "--out", &s(&board)]);
+    assert_eq!(alone.status.code(), Some(3), "{}", text(&alone).1);
+}
+
 #[test]
 fn bad_tier_learner_setting_and_results_file_exit_3_naming_them() {
     let tmp = tempfile::tempdir().unwrap();

@@ -3,7 +3,8 @@
 //! optimum with its 95 % interval (Student's t over seeds); across tasks, the
 //! interquartile mean with stratified-bootstrap intervals, performance profiles and the
 //! probability of improvement over `mmq` (the methods of Agarwal et al., NeurIPS 2021;
-//! the numbers come from [`mmq_lab::suite::stats`]).
+//! the numbers come from [`mmq_lab::suite::stats`]); and the reference, the grid-optimal
+//! policy on each task, with each agent's fraction of it ([`crate::reference`]).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -14,13 +15,14 @@ use mmq_lab::suite::stats::{
     Bootstrap, Interval, Scores, iqm_interval, probability_of_improvement_interval, profile_interval,
     with_interval,
 };
-use mmq_lab::suite::{SuiteResults, read_results};
+use mmq_lab::suite::{SuiteResults, read_results, reference};
 use mmq_plot::{LineChart, RefLine, Series};
 
 use crate::{Doc, ReportError};
 
-/// The agent the probability of improvement is measured against, when present.
-pub const REFERENCE: &str = "mmq";
+/// The agent the probability of improvement is measured against, when present (else the
+/// first file's agent).
+pub const IMPROVEMENT_OVER: &str = "mmq";
 
 /// Resamples of the bootstrap of the interquartile mean, the mean and the probability of
 /// improvement.
@@ -71,8 +73,23 @@ pub fn report(files: &[PathBuf], out: &Path) -> Result<LeaderboardReport, Report
         message: "give at least one results file (results.json of `mmq suite run`)".into(),
     })?;
     let mut entries: Vec<Entry> = Vec::new();
+    let mut given_reference: Option<(SuiteResults, &PathBuf)> = None;
     for f in files {
         let r = read_results(f)?;
+        if reference::is_reference(&r) {
+            if let Some((_, other)) = &given_reference {
+                return Err(LabError::Config {
+                    file: f.display().to_string(),
+                    message: format!(
+                        "is a second reference ({} is one); give one results file of `mmq suite reference`",
+                        other.display()
+                    ),
+                }
+                .into());
+            }
+            given_reference = Some((r, f));
+            continue;
+        }
         if let Some(e) = entries.first() {
             let e = &e.results;
             let tasks = |r: &SuiteResults| r.tasks.iter().map(|t| t.task.clone()).collect::<Vec<_>>();
@@ -101,9 +118,37 @@ pub fn report(files: &[PathBuf], out: &Path) -> Result<LeaderboardReport, Report
         }
         entries.push(entry(r));
     }
+    if entries.is_empty() {
+        return Err(LabError::Config {
+            file: first.display().to_string(),
+            message: "holds only the reference; give at least one agent's results file".into(),
+        }
+        .into());
+    }
+    let head = &entries[0].results;
+    let reference = match given_reference {
+        Some((r, f)) if (r.suite.as_str(), r.tier.as_str()) != (head.suite.as_str(), head.tier.as_str()) => {
+            return Err(LabError::Config {
+                file: f.display().to_string(),
+                message: format!(
+                    "is the reference of suite {} tier {}, but the agents' files are suite {} tier {}",
+                    r.suite, r.tier, head.suite, head.tier
+                ),
+            }
+            .into());
+        }
+        Some((r, f)) => Some((r, format!("from {}", f.display()))),
+        // The shipped reference of a suite of that version, when it has every task (a
+        // suite file of one's own that reuses a version's name has other tasks).
+        None => reference::shipped(&head.suite, &head.tier)
+            .filter(|r| head.tasks.iter().all(|t| r.tasks.iter().any(|x| x.task == t.task)))
+            .map(|r| {
+                let file = format!("worlds/suites/{}/reference-{}.json", head.suite, head.tier);
+                (r, format!("the suite's own, `{file}`, made by `mmq suite reference --tier {}`", head.tier))
+            }),
+    };
     std::fs::create_dir_all(out).map_err(|source| LabError::Io { path: out.to_path_buf(), source })?;
     let mut doc = Doc::new(out);
-    let head = &entries[0].results;
     let tasks: Vec<String> = head.tasks.iter().map(|t| t.task.clone()).collect();
     let _ = writeln!(doc.md, "# Leaderboard: suite {}, tier {}\n", head.suite, head.tier);
     if head.tier == "lite" {
@@ -127,6 +172,9 @@ pub fn report(files: &[PathBuf], out: &Path) -> Result<LeaderboardReport, Report
     }
     aggregates(&mut doc, &entries)?;
     per_task(&mut doc, &entries, &tasks)?;
+    if let Some((r, source)) = &reference {
+        crate::reference::section(&mut doc, &entries_view(&entries), r, &tasks, source)?;
+    }
     profiles(&mut doc, &entries)?;
     scores_csv(&mut doc, &entries)?;
     let md_path = out.join("leaderboard.md");
@@ -135,7 +183,20 @@ pub fn report(files: &[PathBuf], out: &Path) -> Result<LeaderboardReport, Report
     Ok(LeaderboardReport { agents: entries.len(), tasks: tasks.len(), markdown: md_path, files: doc.files })
 }
 
-fn pct(x: f64) -> String {
+/// The agents' results and per-task scores, for the reference section.
+fn entries_view(entries: &[Entry]) -> Vec<crate::reference::AgentScores<'_>> {
+    entries
+        .iter()
+        .map(|e| crate::reference::AgentScores {
+            agent: &e.results.agent,
+            tasks: e.results.tasks.iter().map(|t| t.task.as_str()).collect(),
+            scores: &e.scores,
+            greedy: &e.greedy,
+        })
+        .collect()
+}
+
+pub(crate) fn pct(x: f64) -> String {
     if x.is_finite() { format!("{:.1}", 100.0 * x) } else { "–".into() }
 }
 
@@ -146,7 +207,7 @@ fn interval(i: &Interval) -> String {
 /// The aggregate table and `aggregates.csv`.
 fn aggregates(doc: &mut Doc, entries: &[Entry]) -> Result<(), ReportError> {
     let b = Bootstrap { reps: REPS, seed: SEED };
-    let reference = entries.iter().find(|e| e.results.agent == REFERENCE).or(entries.first());
+    let reference = entries.iter().find(|e| e.results.agent == IMPROVEMENT_OVER).or(entries.first());
     let ref_name = reference.map(|e| e.results.agent.clone()).unwrap_or_default();
     let _ = writeln!(
         doc.md,
@@ -268,7 +329,7 @@ fn profiles(doc: &mut Doc, entries: &[Entry]) -> Result<(), ReportError> {
 }
 
 /// A CSV field, quoted when it holds a comma, a quote or a line break (RFC 4180).
-fn field(s: &str) -> String {
+pub(crate) fn field(s: &str) -> String {
     if s.contains([',', '"', '\n']) { format!("\"{}\"", s.replace('"', "\"\"")) } else { s.to_string() }
 }
 

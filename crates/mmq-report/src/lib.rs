@@ -13,6 +13,7 @@ mod axes;
 mod comparison;
 pub mod leaderboard;
 pub mod paper;
+mod reference;
 pub mod sweep;
 pub mod terminal;
 pub mod text;

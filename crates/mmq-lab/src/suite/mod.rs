@@ -11,6 +11,7 @@
 //! `results.csv`) plus `suite.json` (which suite, tier, agent and tasks) and
 //! `results.json` (the scores).
 
+pub mod reference;
 pub mod results;
 pub mod stats;
 
@@ -25,7 +26,7 @@ use crate::settings::{has_setting, not_a_setting};
 use crate::sweep::SweepSpec;
 
 pub use results::{
-    SeedScore, SuiteResults, TaskResults, collect, read_results, results_of_dir, write_results,
+    SeedScore, SuiteResults, TaskResults, collect, parse_results, read_results, results_of_dir, write_results,
 };
 
 /// The suites shipped with mmq: (version, the suite file's text).

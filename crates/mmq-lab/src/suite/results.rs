@@ -187,7 +187,14 @@ pub fn read_results(path: &Path) -> Result<SuiteResults, LabError> {
     let bad = |message: String| LabError::Config { file: path.display().to_string(), message };
     let text = mmq_core::files::read_text_bounded(path, MAX_RESULTS_BYTES)
         .map_err(|e| bad(format!("cannot read the results file: {e}")))?;
-    let r: SuiteResults = serde_json::from_str(&text).map_err(|e| {
+    parse_results(&text, path)
+}
+
+/// Parses and checks a results file's text, as [`read_results`]; `path` names it in
+/// errors.
+pub fn parse_results(text: &str, path: &Path) -> Result<SuiteResults, LabError> {
+    let bad = |message: String| LabError::Config { file: path.display().to_string(), message };
+    let r: SuiteResults = serde_json::from_str(text).map_err(|e| {
         bad(format!("not a suite results file ({e}); give a results.json of `mmq suite run`"))
     })?;
     if r.format != FORMAT {
