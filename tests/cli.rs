@@ -295,6 +295,8 @@ mod world {
                 args.push(format!("worlds/{}", p.file_name().unwrap().to_string_lossy()));
             }
         }
+        // A loop over no world would check nothing: the 8 shipped worlds must be there.
+        assert!(args.len() >= 2 + 8, "expected the 8 shipped worlds in worlds/: {args:?}");
         let refs: Vec<&str> = args.iter().map(String::as_str).collect();
         let o = mmq(&refs);
         assert!(o.status.success(), "{:?}", text(&o));

@@ -157,7 +157,7 @@ pub fn read_recording(path: &Path) -> Result<mmq_log::LogContents, LabError> {
             file: path.display().to_string(),
             message: format!(
                 "an MCAP file, but not a recording of this program (no `run` metadata, no {decision} \
-                 topic); `mmq replay` reads the files of `mmq run --record`"
+                 topic); only recordings of runs (`record = true`) can be read"
             ),
         });
     }
@@ -257,7 +257,7 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> 
     let file = log.path.display().to_string();
     let bad = |message: String| LabError::Config { file: file.clone(), message };
     let cfg_text = log.attachment("config.toml").ok_or_else(|| {
-        bad("the log has no config.toml attachment; it was not written by `mmq run --record`".into())
+        bad("the log has no config.toml attachment; it was not written by a recorded run (`record = true`)".into())
     })?;
     let mut cfg =
         RunConfig::from_toml(&String::from_utf8_lossy(&cfg_text.data), &format!("{file}#config.toml"))?;

@@ -53,7 +53,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
     {
         return Err(LabError::Config {
             file: out.join("sweep.json").display().to_string(),
-            message: "the output directory holds another sweep; choose an empty --out".into(),
+            message: "the output directory holds another sweep; give an empty output directory (`out`)"
+                .into(),
         });
     }
     // One process writes into `out` at a time (`crate::lock`).

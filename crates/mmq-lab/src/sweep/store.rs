@@ -152,7 +152,7 @@ pub fn read_manifest(dir: &Path) -> Result<Manifest, LabError> {
     let p = dir.join("sweep.json");
     let text = mmq_core::files::read_text_bounded(&p, MAX_MANIFEST_BYTES).map_err(|e| LabError::Config {
         file: p.display().to_string(),
-        message: format!("not a sweep output directory ({e}); run `mmq sweep SPEC --out DIR` first"),
+        message: format!("not a sweep output directory ({e}); run a sweep into it first"),
     })?;
     let m: Manifest = serde_json::from_str(&text)
         .map_err(|e| LabError::Config { file: p.display().to_string(), message: e.to_string() })?;

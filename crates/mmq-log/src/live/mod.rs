@@ -273,7 +273,7 @@ fn start_server(
     server.start_blocking().map_err(|e| {
         let text = e.to_string();
         let hint = if text.contains("in use") {
-            "; another program (another `mmq --live`?) has that port: stop it or name another port"
+            "; another program (another live view?) has that port: stop it or name another port"
         } else if text.contains("assign") || text.contains("not available") {
             "; that address is not one of this machine's"
         } else {
