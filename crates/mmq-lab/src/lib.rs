@@ -18,6 +18,7 @@ pub mod paper;
 pub mod record;
 pub mod runner;
 pub mod settings;
+pub mod stepper;
 pub mod suite;
 pub mod summary;
 pub mod sweep;
