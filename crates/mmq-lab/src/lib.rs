@@ -6,6 +6,7 @@
 //! Architecture invariant: the lab reports progress through a callback and stops on a
 //! flag; it never prints, never owns a progress bar and knows no command-line parser.
 
+pub mod batch;
 pub mod comparison;
 pub mod config;
 pub mod error;
