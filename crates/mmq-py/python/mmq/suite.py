@@ -29,7 +29,7 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Optional, Sequence, Tuple
 
 from mmq import _mmq
 
@@ -38,14 +38,16 @@ __all__ = ["Task", "evaluate"]
 
 @dataclass(frozen=True)
 class Task:
-    """What an agent is told about one seed of one task.
+    """What an agent is told about the seeds of one task it is made for.
 
     ``name``: the task's name; ``n_states``, ``n_actions``: the table's shape (states
     are ``0..n_states``, actions ``0..n_actions``); ``seed``: the master seed (seed your
-    own randomness with it); ``max_delay``: delays stay below it (``None`` if the task
-    gives none). ``epsilon`` and ``q0`` are the task's exploration rate and initial value
-    for an ε-greedy tabular agent: the protocol's suggestion, which the built-in learners
-    follow; exploration is the agent's own business."""
+    own randomness with it); ``seeds``: the master seeds of a batched agent, in the order
+    of its arrays (``seed`` is the first; an agent of one seed plays ``seed`` only);
+    ``max_delay``: delays stay below it (``None`` if the task gives none). ``epsilon``
+    and ``q0`` are the task's exploration rate and initial value for an ε-greedy tabular
+    agent: the protocol's suggestion, which the built-in learners follow; exploration is
+    the agent's own business."""
 
     name: str
     n_states: int
@@ -54,6 +56,7 @@ class Task:
     max_delay: Optional[int]
     epsilon: float
     q0: float
+    seeds: Tuple[int, ...] = ()
 
 
 def evaluate(
@@ -93,6 +96,7 @@ def evaluate(
         tasks = [str(t) for t in tasks]
 
     def build(**kw: Any) -> Any:
+        kw["seeds"] = tuple(kw["seeds"])
         return make_agent(Task(**kw))
 
     path = _mmq.suite_evaluate(
