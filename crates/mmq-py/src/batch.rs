@@ -16,7 +16,7 @@ use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use mmq_lab::batch::{BatchLearner, Seat};
-use numpy::{PyArray1, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyKeyboardInterrupt, PySystemExit};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict};
@@ -32,49 +32,84 @@ struct Methods {
     greedy: Py<PyAny>,
 }
 
-/// One of the driver's arrays: written by Rust, handed to Python as a read-only view.
+/// The driver's arrays: two blocks written by Rust (one borrow per call), handed to
+/// Python as read-only views of their rows.
 #[derive(Debug)]
-struct Shown<T: numpy::Element> {
-    own: Py<PyArray1<T>>,
-    view: Py<PyAny>,
+struct Arrays {
+    /// Rows: states, actions, next states, steps.
+    ints: Py<PyArray2<i64>>,
+    /// Rows: rewards, simulated times.
+    floats: Py<PyArray2<f64>>,
+    states: Py<PyAny>,
+    actions: Py<PyAny>,
+    next_states: Py<PyAny>,
+    rewards: Py<PyAny>,
+    /// `{"t": steps, "time_s": simulated times}`.
+    infos: Py<PyDict>,
 }
 
-impl<T: numpy::Element + Copy> Shown<T> {
-    /// An array of `n` zeros and its read-only view.
-    fn new(py: Python<'_>, n: usize) -> PyResult<Shown<T>> {
-        let own = PyArray1::<T>::zeros(py, n, false);
-        let view = own.call_method0("view")?;
+/// Rows of `ints` and `floats`.
+const STATES: usize = 0;
+const ACTIONS: usize = 1;
+const NEXT_STATES: usize = 2;
+const T: usize = 3;
+const REWARDS: usize = 0;
+const TIME_S: usize = 1;
+
+impl Arrays {
+    /// The arrays of a batch of `n` seeds.
+    fn new(py: Python<'_>, n: usize) -> PyResult<Arrays> {
+        let ints = PyArray2::<i64>::zeros(py, [4, n], false);
+        let floats = PyArray2::<f64>::zeros(py, [2, n], false);
         let ro = PyDict::new(py);
         ro.set_item("write", false)?;
-        view.call_method("setflags", (), Some(&ro))?;
-        Ok(Shown { own: own.unbind(), view: view.unbind() })
+        let row = |block: &Bound<'_, PyAny>, k: usize| -> PyResult<Py<PyAny>> {
+            let v = block.get_item(k)?;
+            v.call_method("setflags", (), Some(&ro))?;
+            Ok(v.unbind())
+        };
+        let infos = PyDict::new(py);
+        infos.set_item("t", row(ints.as_any(), T)?)?;
+        infos.set_item("time_s", row(floats.as_any(), TIME_S)?)?;
+        Ok(Arrays {
+            states: row(ints.as_any(), STATES)?,
+            actions: row(ints.as_any(), ACTIONS)?,
+            next_states: row(ints.as_any(), NEXT_STATES)?,
+            rewards: row(floats.as_any(), REWARDS)?,
+            ints: ints.unbind(),
+            floats: floats.unbind(),
+            infos: infos.unbind(),
+        })
     }
 
-    /// Writes `f(seat)` of every seat.
-    fn fill(&self, py: Python<'_>, seats: &[Seat], f: impl Fn(&Seat) -> T) {
-        let mut w = self.own.bind(py).readwrite();
-        let out = w.as_slice_mut().expect("the driver's arrays are contiguous");
-        for (o, s) in out.iter_mut().zip(seats) {
-            *o = f(s);
+    /// Writes the seats' states (for `act_batch` and `greedy_batch`).
+    fn fill_states(&self, py: Python<'_>, seats: &[Seat]) {
+        let mut w = self.ints.bind(py).readwrite();
+        let all = w.as_slice_mut().expect("the driver's arrays are contiguous");
+        for (o, s) in all[STATES * seats.len()..].iter_mut().zip(seats) {
+            *o = s.state as i64;
         }
     }
 
-    fn arg(&self, py: Python<'_>) -> Py<PyAny> {
-        self.view.clone_ref(py)
+    /// Writes what the seats' steps gave (for `observe_batch`; the states are those
+    /// acted in, written for `act_batch`).
+    fn fill_steps(&self, py: Python<'_>, seats: &[Seat]) {
+        let n = seats.len();
+        let mut w = self.ints.bind(py).readwrite();
+        let all = w.as_slice_mut().expect("the driver's arrays are contiguous");
+        let (_, rest) = all.split_at_mut(ACTIONS * n);
+        let (actions, rest) = rest.split_at_mut(n);
+        let (next_states, t) = rest.split_at_mut(n);
+        for (i, s) in seats.iter().enumerate() {
+            (actions[i], next_states[i], t[i]) = (s.action as i64, s.next_state as i64, s.t as i64);
+        }
+        let mut w = self.floats.bind(py).readwrite();
+        let all = w.as_slice_mut().expect("the driver's arrays are contiguous");
+        let (rewards, time_s) = all.split_at_mut(n);
+        for (i, s) in seats.iter().enumerate() {
+            (rewards[i], time_s[i]) = (s.reward, s.time_s);
+        }
     }
-}
-
-/// The arrays handed to the agent (length: the batch's seeds), allocated once.
-#[derive(Debug)]
-struct Arrays {
-    states: Shown<i64>,
-    actions: Shown<i64>,
-    rewards: Shown<f64>,
-    next_states: Shown<i64>,
-    t: Shown<i64>,
-    time_s: Shown<f64>,
-    /// `{"t": t, "time_s": time_s}` (the views).
-    infos: Py<PyDict>,
 }
 
 /// A batched Python agent driven for the seeds of one task.
@@ -130,20 +165,7 @@ impl PyBatch {
             )));
         };
         let greedy = method("greedy_batch").unwrap_or_else(|| act.clone_ref(py));
-        let n = self.seeds.len();
-        let (t, time_s) = (Shown::new(py, n)?, Shown::new(py, n)?);
-        let infos = PyDict::new(py);
-        infos.set_item("t", t.arg(py))?;
-        infos.set_item("time_s", time_s.arg(py))?;
-        let arrays = Arrays {
-            states: Shown::new(py, n)?,
-            actions: Shown::new(py, n)?,
-            rewards: Shown::new(py, n)?,
-            next_states: Shown::new(py, n)?,
-            t,
-            time_s,
-            infos: infos.unbind(),
-        };
+        let arrays = Arrays::new(py, self.seeds.len())?;
         Ok(Ok((Methods { act, observe, greedy }, arrays)))
     }
 
@@ -198,9 +220,9 @@ impl PyBatch {
         let name = if greedy { "greedy_batch(states)" } else { "act_batch(states)" };
         Python::attach(|py| {
             let Some((m, a)) = &self.live else { return };
-            a.states.fill(py, seats, |s| s.state as i64);
+            a.fill_states(py, seats);
             let method = if greedy { &m.greedy } else { &m.act };
-            match method.call1(py, (a.states.arg(py),)) {
+            match method.call1(py, (a.states.clone_ref(py),)) {
                 Ok(v) => {
                     if let Err(why) = self.check_actions(name, v.bind(py), seats) {
                         self.fail_all(why, seats);
@@ -238,9 +260,9 @@ impl PyBatch {
             if arr.len() != n {
                 return Err(bad_len(Some(arr.len())));
             }
-            let read = arr.try_readonly();
-            if let Some(acts) = read.as_ref().ok().and_then(|r| r.as_slice().ok()) {
-                for (i, (seat, &a)) in seats.iter_mut().zip(acts).enumerate() {
+            // A copy (no borrow to register: nothing else holds it meanwhile).
+            if let Ok(acts) = arr.to_vec() {
+                for (i, (seat, &a)) in seats.iter_mut().zip(&acts).enumerate() {
                     if !seat.live || seat.failure.is_some() {
                         continue;
                     }
@@ -291,16 +313,12 @@ impl BatchLearner for PyBatch {
         Python::attach(|py| {
             let Some((m, a)) = &self.live else { return };
             // `states` holds the states acted in since `act_batch`.
-            a.actions.fill(py, seats, |s| s.action as i64);
-            a.rewards.fill(py, seats, |s| s.reward);
-            a.next_states.fill(py, seats, |s| s.next_state as i64);
-            a.t.fill(py, seats, |s| s.t as i64);
-            a.time_s.fill(py, seats, |s| s.time_s);
+            a.fill_steps(py, seats);
             let args = (
-                a.states.arg(py),
-                a.actions.arg(py),
-                a.rewards.arg(py),
-                a.next_states.arg(py),
+                a.states.clone_ref(py),
+                a.actions.clone_ref(py),
+                a.rewards.clone_ref(py),
+                a.next_states.clone_ref(py),
                 a.infos.clone_ref(py),
             );
             if let Err(e) = m.observe.call1(py, args) {
