@@ -3,10 +3,12 @@
 //! engine and store (so it resumes where it stopped) and writes `results.json` with the
 //! writer of `mmq suite run`.
 //!
-//! The seeds run one after another on a worker thread, which holds the GIL only while it
-//! calls the agent; the calling thread waits without the GIL and checks for Ctrl-C
-//! (`KeyboardInterrupt`) meanwhile, which stops the run at the next step, keeping every
-//! finished seed.
+//! The seeds run one after another on a worker thread, or, for a batched agent
+//! ([`crate::batch::PyBatch`], seen on the first agent made), the pending seeds of each
+//! task together in lockstep ([`mmq_lab::sweep::run_sweep_batched`]). The worker holds
+//! the GIL only while it calls the agent; the calling thread waits without the GIL and
+//! checks for Ctrl-C (`KeyboardInterrupt`) meanwhile, which stops the run at the next
+//! step, keeping every finished seed.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -102,7 +104,8 @@ fn in_worker<T: Send>(py: Python<'_>, shared: &Shared, work: impl FnOnce() -> T 
 
 /// Runs the agent `build` makes on every pending seed of `tier`, writes
 /// `out/results.json` and returns its path. `build(name=, n_states=, n_actions=, seed=,
-/// max_delay=, epsilon=, q0=)` returns the agent of one seed.
+/// seeds=, max_delay=, epsilon=, q0=)` returns the agent of `seeds` (`seed` the first):
+/// of one seed, or batched.
 #[pyfunction]
 #[pyo3(signature = (build, tier, out, name, suite, tasks=None, time_limit_s=None))]
 pub fn suite_evaluate(

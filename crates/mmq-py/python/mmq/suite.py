@@ -22,7 +22,9 @@ Example::
             self.q[state, action] += 0.1 * (target - self.q[state, action])
 
     results = mmq.suite.evaluate(Q, tier="lite", out="suite/my-q", name="my-q")
-"""
+
+An agent with ``act_batch`` and ``observe_batch`` plays all the seeds of a task at once
+(docs/suite.md, "Batched agents")."""
 
 from __future__ import annotations
 
@@ -79,6 +81,18 @@ def evaluate(
     step, and ``time_s``, the simulated time) and, optionally, ``greedy(state) -> int``
     for the final greedy evaluation (without it, ``act`` is used). A new agent is made
     for every seed.
+
+    A batched agent has ``act_batch(states) -> actions``,
+    ``observe_batch(states, actions, rewards, next_states, infos)`` and, optionally,
+    ``greedy_batch(states) -> actions``: it is made once per task for all its pending
+    seeds (``task.seeds``), which step together; the arguments are read-only NumPy
+    arrays of one entry per seed (``int64``; ``rewards`` ``float64``; ``infos`` a dict
+    of the arrays ``t`` and ``time_s``), reused from call to call (copy what you keep),
+    and ``actions`` is one int per seed. Each seed gets the results it would get from
+    the same decisions made one seed at a time. An exception of a batched call fails
+    every seed of its task's batch; a bad action fails its seed only; the time limit is
+    ``time_limit_s`` per seed of the batch; an interrupted batch is run again from its
+    start by the next call.
 
     An exception of the agent (or of ``make_agent``), an action that is not an int or is
     out of range, or a seed over ``time_limit_s`` seconds of wall time fails that seed
