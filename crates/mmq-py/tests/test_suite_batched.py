@@ -286,3 +286,22 @@ def test_a_batch_over_its_time_limit_fails(tmp_path):
     )
     seeds = _scores(r)["three-uniform"]
     assert len(seeds) == 3 and all(s["failed"] and "ran out of time" in s["error"] for s in seeds), seeds
+
+
+def test_a_batched_agent_whose_first_making_raises(tmp_path):
+    """Whether the agent is batched is seen on the first agent made: if making it raises,
+    the evaluation drives agents of one seed, and a batched agent's seeds fail saying so."""
+    calls = []
+
+    def make(task):
+        calls.append(task.seeds)
+        if len(calls) == 1:
+            raise RuntimeError("cannot make it")
+        return BatchQ(task)
+
+    r = mmq.suite.evaluate(make, out=tmp_path / "o", name="q", suite=_tiny(tmp_path), tasks=["three-uniform"])
+    _validate(r)
+    seeds = _scores(r)["three-uniform"]
+    assert "RuntimeError: cannot make it" in seeds[0]["error"]
+    assert all("it has act_batch, but this evaluation drives agents of one seed" in s["error"] for s in seeds[1:])
+    assert calls == [(0, 1, 2), (1,), (2,)]
