@@ -6,6 +6,7 @@
 //! Architecture invariant: the lab reports progress through a callback and stops on a
 //! flag; it never prints, never owns a progress bar and knows no command-line parser.
 
+pub mod batch;
 pub mod comparison;
 pub mod config;
 pub mod error;
@@ -18,6 +19,7 @@ pub mod paper;
 pub mod record;
 pub mod runner;
 pub mod settings;
+pub mod stepper;
 pub mod suite;
 pub mod summary;
 pub mod sweep;

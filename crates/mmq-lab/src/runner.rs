@@ -5,19 +5,17 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
-use mmq_core::{
-    DelayDist, DelayedReward, Env, Event, Move, Observer, Optimum, RunInfo, SeedTree, Start, StepGate,
-    StepTrace, Stream, Telemetry, World,
-};
+use mmq_core::{DelayDist, Env, Move, Observer, Optimum, SeedTree, Telemetry, World};
 use mmq_grid::GridEnv;
 use mmq_learn::policy::probabilistic;
-use mmq_learn::{Diagnostics, Experience, Learner, LearnerSpec, Table, Truth};
+use mmq_learn::{Diagnostics, Learner, LearnerSpec, Table};
 use mmq_robot::{RobotConfig, RobotEnv};
 use serde::{Deserialize, Serialize};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::exec::{Job, run_jobs_in_order};
+use crate::stepper::{Evaluation, Stepper};
 
 /// How a run is steered from outside: a stop flag (Ctrl-C) and a progress callback.
 #[derive(Clone, Copy)]
@@ -44,7 +42,7 @@ pub type ObserverFactory<'a> = dyn Fn(u64) -> Result<Option<Box<dyn Observer + S
 pub type LearnerFactory<'a> = dyn Fn(usize, usize, u64) -> Result<Box<dyn Learner>, LabError> + Sync + 'a;
 
 /// Progress is reported every this many steps.
-const CHECK_EVERY: u64 = 1024;
+pub(crate) const CHECK_EVERY: u64 = 1024;
 
 /// Steps between two samples of the learner's diagnostics during learning.
 pub const DIAGNOSTICS_EVERY: u64 = 10_000;
@@ -296,7 +294,7 @@ pub fn run_seed_on<E: Env + Telemetry>(
     let config_toml = cfg.to_toml();
     let facts = run_facts(cfg, world);
     let learn_clock = Instant::now();
-    let (run, env) = learn(
+    let (run, mut env) = learn(
         env,
         &mut *learner,
         dist,
@@ -308,18 +306,54 @@ pub fn run_seed_on<E: Env + Telemetry>(
         cfg.learner.kind().name(),
     )?;
     let learn_s = learn_clock.elapsed().as_secs_f64();
-    let complete = run.steps_done == cfg.steps;
-    let mut env = env;
     // Physics figures of the learning run (before evaluation resets the environment).
     let env_stats = env.stats();
     // A stopped run is not evaluated: the evaluation's steps would delay the stop (a
     // robot's thousand primitives take seconds), and a partial policy's score means little.
-    let eval_steps = if complete { cfg.eval_steps } else { 0 };
-    let (greedy_per_step, greedy_path) = evaluate(&mut env, &*learner, eval_steps, seeds, seed)?;
+    let eval_steps = if run.steps_done == cfg.steps { cfg.eval_steps } else { 0 };
+    let greedy = evaluate(&mut env, &*learner, eval_steps, seeds, seed)?;
+    let learned = Learned { run, env, env_stats, greedy, learn_s, clock };
+    conclude(cfg, seed, learned, &*learner, observer, ctl, mem_limit, own_baseline, &make)
+}
+
+/// What a seed's learning and greedy evaluation left for [`conclude`].
+pub(crate) struct Learned<E> {
+    /// The learning trajectory.
+    pub run: Trajectory,
+    /// The environment after the evaluation.
+    pub env: E,
+    /// Its figures after learning.
+    pub env_stats: Vec<(String, f64)>,
+    /// The greedy evaluation's reward per step and path.
+    pub greedy: (f64, Vec<usize>),
+    /// Wall-clock seconds of learning.
+    pub learn_s: f64,
+    /// Started with the seed.
+    pub clock: Instant,
+}
+
+/// The rest of a seed after its greedy evaluation: the policy maps, the learner's or the
+/// observer's failure, the baseline (if `own_baseline`, on an environment of `make`) and
+/// the seed's result.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn conclude<E: Env + Telemetry>(
+    cfg: &RunConfig,
+    seed: u64,
+    learned: Learned<E>,
+    learner: &dyn Learner,
+    mut observer: Option<Box<dyn Observer + Send>>,
+    ctl: Control<'_>,
+    mem_limit: u128,
+    own_baseline: bool,
+    make: &dyn Fn() -> Result<E, LabError>,
+) -> Result<SeedResult, LabError> {
+    let Learned { run, env, env_stats, greedy: (greedy_per_step, greedy_path), learn_s, clock } = learned;
+    let seeds = SeedTree::new(seed);
+    let complete = run.steps_done == cfg.steps;
     // The policy maps visit every state (a second on the largest worlds): a stop cuts them
     // short, and the seed is then incomplete.
     let stopped = || ctl.stop.load(Ordering::Relaxed);
-    let (policy_arrows, policy_probs, values, whole) = policy_of(&env, &*learner, &stopped);
+    let (policy_arrows, policy_probs, values, whole) = policy_of(&env, learner, &stopped);
     let complete = complete && whole;
     let mut failure = learner.failure();
     if let Some(o) = observer.as_mut() {
@@ -359,7 +393,7 @@ pub fn run_seed_on<E: Env + Telemetry>(
     })
 }
 
-/// The learning loop of one trajectory.
+/// The learning loop of one trajectory ([`Stepper`] to its end).
 #[allow(clippy::too_many_arguments)]
 fn learn<E: Env + Telemetry>(
     env: E,
@@ -367,199 +401,17 @@ fn learn<E: Env + Telemetry>(
     dist: &DelayDist,
     cfg: &RunConfig,
     seeds: SeedTree,
-    mut observer: Option<&mut Box<dyn Observer + Send>>,
+    observer: Option<&mut Box<dyn Observer + Send>>,
     ctl: Control<'_>,
     info: Option<(&str, &[(String, String)])>,
     learner_name: &str,
 ) -> Result<(Trajectory, E), LabError> {
-    let needs_truth = learner.needs_truth();
-    let ledger = cfg.ledger || needs_truth || observer.is_some();
-    let mut ch = DelayedReward::new(env, dist, ledger);
-    // Nothing here reads the ledger after a step's record (the oracle: the step's
-    // deliveries), so only an observer asking for it gets the run's whole history.
-    ch.trim_ledger(!observer.as_ref().is_some_and(|o| o.ledger_history()));
-    let seed = seeds.master();
-    let env_err = |source| LabError::Env { seed, source };
-    let mut s =
-        ch.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay), Start::World).map_err(env_err)?;
-    let mut rng = seeds.rng(Stream::Explore);
-    let n_states = ch.env().num_states();
-    let mut traj = Trajectory { visits: vec![0; n_states], ..Trajectory::default() };
-    let mut trace = StepTrace::default();
-    let mut truth = Truth::default();
-    if let Some(o) = observer.as_mut() {
-        ch.env_mut().set_trace(o.trace_period_s());
-        let names = ch.env().action_names();
-        let (config_toml, facts) = info.unwrap_or(("", &[]));
-        let world = ch.env().world().clone();
-        let run_info = RunInfo {
-            world: &world,
-            seed,
-            learner: learner_name,
-            action_names: &names,
-            config_toml,
-            env_kind: cfg.env.name(),
-            facts,
-            start_pose: (cfg.env != crate::config::EnvKind::Grid).then(|| ch.env().pose()),
-        };
-        o.on_start(&run_info, s, ch.env().sim_time_s());
+    let mut st = Stepper::start(env, &*learner, dist, cfg, seeds, observer, ctl, info, learner_name)?;
+    while let Some(s) = st.begin(&*learner) {
+        let d = learner.act(s, st.rng());
+        st.advance(d, learner)?;
     }
-    // An observer that sometimes wants no steps (a live view nobody watches): while its
-    // gate is closed, no record is built and no call made.
-    let gate = observer.as_ref().and_then(|o| o.step_gate());
-    // Whether the next step is observed (read at the end of the step before, so that a
-    // run without an observer pays nothing for it).
-    let mut open = gate.as_ref().is_none_or(StepGate::is_open);
-    let table_every = (cfg.steps / 10).max(1);
-    // Steps left until the next tables (a countdown, not a division per step).
-    let mut tables_left = table_every;
-    let (mut w_earned, mut w_received) = (0.0, 0.0);
-    // Steps left in the current curve window (a countdown, not a division per step).
-    let mut window_left = cfg.window;
-    // The next progress check and the next sample of the learner's diagnostics (both at
-    // the start of a step), and the earlier of the two: one comparison per step.
-    let (mut next_check, mut next_sample) = (CHECK_EVERY, DIAGNOSTICS_EVERY);
-    let mut next_event = next_check.min(next_sample);
-    let mut pending_progress = 0u64;
-    for t in 0..cfg.steps {
-        if t == next_event {
-            if t == next_sample {
-                // The learner has learned from `t` steps.
-                sample_diagnostics(&mut traj, &*learner, t);
-                next_sample += DIAGNOSTICS_EVERY;
-            }
-            let check = t == next_check;
-            if check {
-                next_check += CHECK_EVERY;
-            }
-            next_event = next_sample.min(next_check);
-            if check {
-                // Progress in chunks.
-                (ctl.progress)(pending_progress);
-                pending_progress = 0;
-                // An observer that lost output (a failed write) ends the seed: its results
-                // could never be reported complete.
-                if observer.as_ref().is_some_and(|o| o.error().is_some()) {
-                    break;
-                }
-            }
-        }
-        // The stop flag every step (one relaxed load: a robot primitive can take long),
-        // and whether the learner gave up (an outside agent that raised).
-        if ctl.stop.load(Ordering::Relaxed) || learner.failure().is_some() {
-            break;
-        }
-        let d = learner.act(s, &mut rng);
-        let st = ch.step(d.action).map_err(env_err)?;
-        if needs_truth {
-            truth.emitted_now = st.delay.map(|_| st.step.reward);
-            truth.delivered.clear();
-            truth.delivered.extend(ch.delivered_emissions());
-        }
-        learner.observe(&Experience {
-            t,
-            state: s,
-            action: d.action,
-            next_state: st.step.state,
-            reward: st.delivered,
-            time_s: st.time_s,
-            truth: needs_truth.then_some(&truth),
-        });
-        traj.visits[s] += 1;
-        traj.events[event_index(st.step.event)] += 1;
-        traj.earned_total += st.step.reward;
-        traj.received_total += st.delivered;
-        w_earned += st.step.reward;
-        w_received += st.delivered;
-        traj.steps_done = t + 1;
-        pending_progress += 1;
-        if let Some(o) = observer.as_mut() {
-            if open {
-                ch.env_mut().take_trace(&mut trace);
-                o.on_step(&ch.record(s, d.action, d.model, d.explored, &st, &trace));
-            }
-            tables_left -= 1;
-            if tables_left == 0 {
-                tables_left = table_every;
-                let (visits, values) = cell_tables(ch.env(), &*learner, &traj.visits);
-                o.on_tables(t + 1, ch.env().sim_time_s(), &visits, &values);
-            }
-            if let Some(g) = &gate {
-                let was_open = open;
-                open = g.is_open();
-                if open && !was_open {
-                    // Where the run stands before the next step.
-                    o.on_resume(&ch.resume_point());
-                }
-            }
-        }
-        window_left -= 1;
-        if window_left == 0 {
-            window_left = cfg.window;
-            traj.curve.push(CurveRow {
-                step: t + 1,
-                earned: w_earned,
-                received: w_received,
-                earned_cum: traj.earned_total,
-                received_cum: traj.received_total,
-            });
-            w_earned = 0.0;
-            w_received = 0.0;
-        }
-        s = st.step.state;
-    }
-    if traj.steps_done == next_sample {
-        sample_diagnostics(&mut traj, &*learner, next_sample);
-    }
-    (ctl.progress)(pending_progress);
-    traj.delays = ch.delay_stats();
-    traj.sim_time_s = ch.env().sim_time_s();
-    if !traj.steps_done.is_multiple_of(cfg.window) {
-        traj.curve.push(CurveRow {
-            step: traj.steps_done,
-            earned: w_earned,
-            received: w_received,
-            earned_cum: traj.earned_total,
-            received_cum: traj.received_total,
-        });
-    }
-    Ok((traj, ch.into_inner()))
-}
-
-/// Appends the learner's diagnostics after `step` steps to the trajectory (unless it
-/// reports none).
-fn sample_diagnostics(traj: &mut Trajectory, learner: &dyn Learner, step: u64) {
-    let diagnostics = learner.diagnostics();
-    if diagnostics != Diagnostics::default() {
-        traj.diagnostics.push(DiagnosticsSample { step, diagnostics });
-    }
-}
-
-fn event_index(e: Event) -> usize {
-    match e {
-        Event::Moved => 0,
-        Event::WallBump => 1,
-        Event::Teleport => 2,
-        Event::TimedOut => 3,
-    }
-}
-
-/// Per-cell visit counts and greedy values for maps and logs.
-fn cell_tables<E: Env>(env: &E, learner: &dyn Learner, visits: &[u64]) -> (Vec<f64>, Vec<f64>) {
-    let cells = env.world().num_cells();
-    let mut v = vec![0.0; cells];
-    let mut val = vec![f64::NAN; cells];
-    let mut buf = vec![0.0; env.num_actions()];
-    for (s, &n) in visits.iter().enumerate() {
-        let c = env.state_cell(s);
-        v[c] += n as f64;
-        if env.world().is_free(c) {
-            learner.action_values(s, &mut buf);
-            let m = buf.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-            val[c] = if val[c].is_nan() { m } else { val[c].max(m) };
-        }
-    }
-    (v, val)
+    Ok(st.finish(&*learner))
 }
 
 /// Greedy evaluation: `steps` steps of the greedy policy from `S`, no exploration and no
@@ -571,25 +423,12 @@ pub fn evaluate<E: Env + Telemetry>(
     seeds: SeedTree,
     seed: u64,
 ) -> Result<(f64, Vec<usize>), LabError> {
-    if steps == 0 {
-        return Ok((f64::NAN, Vec::new()));
+    let mut ev = Evaluation::start(env, steps, seeds, seed)?;
+    while let Some(s) = ev.begin() {
+        let a = learner.greedy(s, ev.rng());
+        ev.advance(env, a)?;
     }
-    let env_err = |source| LabError::Env { seed, source };
-    env.set_trace(None);
-    let mut s = env.reset(seeds.seed(Stream::Eval), Start::Respawn).map_err(env_err)?;
-    let mut rng = seeds.rng(Stream::Eval);
-    let mut total = 0.0;
-    let mut path = vec![s];
-    for _ in 0..steps {
-        let a = learner.greedy(s, &mut rng);
-        let st = env.step(a).map_err(env_err)?;
-        total += st.reward;
-        s = st.state;
-        if path.len() < 200 {
-            path.push(s);
-        }
-    }
-    Ok((total / steps as f64, path))
+    Ok(ev.finish())
 }
 
 /// Deterministic (bit set of maximisers) and probabilistic policies per state, and

@@ -79,8 +79,14 @@ impl PyAgent {
                 let callable = |m: &str| b.getattr(m).is_ok_and(|f| f.is_callable());
                 if let Some(m) = ["act", "observe"].into_iter().find(|m| !callable(m)) {
                     let what = b.get_type().name().map_or_else(|_| "?".into(), |n| n.to_string());
+                    // A batched agent here: the first agent made was not one (or raised).
+                    let batched = if callable("act_batch") {
+                        "; it has act_batch, but this evaluation drives agents of one seed, as the first agent made was not batched (or make_agent raised)"
+                    } else {
+                        ""
+                    };
                     me.fail(format!(
-                        "make_agent returned an object of type {what} without a method `{m}`; an agent has act(state) and observe(state, action, reward, next_state, info)"
+                        "make_agent returned an object of type {what} without a method `{m}`; an agent has act(state) and observe(state, action, reward, next_state, info){batched}"
                     ));
                 } else {
                     me.has_greedy = callable("greedy");

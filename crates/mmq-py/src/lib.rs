@@ -10,6 +10,7 @@
 //! Architecture invariant: this is the only crate of mmq that knows pyo3 and NumPy.
 
 pub mod agent;
+pub mod batch;
 pub mod config;
 pub mod env;
 pub mod learn;

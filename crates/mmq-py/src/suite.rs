@@ -3,18 +3,22 @@
 //! engine and store (so it resumes where it stopped) and writes `results.json` with the
 //! writer of `mmq suite run`.
 //!
-//! The seeds run one after another on a worker thread, which holds the GIL only while it
-//! calls the agent; the calling thread waits without the GIL and checks for Ctrl-C
-//! (`KeyboardInterrupt`) meanwhile, which stops the run at the next step, keeping every
-//! finished seed.
+//! The seeds run one after another on a worker thread, or, for a batched agent
+//! ([`crate::batch::PyBatch`], seen on the first agent made), the pending seeds of each
+//! task together in lockstep ([`mmq_lab::sweep::run_sweep_batched`]). The worker holds
+//! the GIL only while it calls the agent; the calling thread waits without the GIL and
+//! checks for Ctrl-C (`KeyboardInterrupt`) meanwhile, which stops the run at the next
+//! step, keeping every finished seed.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 use std::time::Duration;
 
+use mmq_lab::batch::BatchLearner;
+use mmq_lab::runner::table_shape;
 use mmq_lab::suite::{Suite, SuiteRun, results_of_dir, write_results};
-use mmq_lab::sweep::run_sweep_with;
+use mmq_lab::sweep::{pending_jobs, run_sweep_batched, run_sweep_with};
 use mmq_lab::{Control, LabError};
 use mmq_learn::Learner;
 use pyo3::exceptions::PyRuntimeError;
@@ -22,6 +26,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use crate::agent::{PyAgent, Shared};
+use crate::batch::PyBatch;
 use crate::config::config_err;
 
 /// What an agent is told about its task (besides its table's shape and its seed).
@@ -52,6 +57,32 @@ fn load_suite(suite: &str, tasks: Option<&[String]>) -> PyResult<(Suite, bool)> 
     }
 }
 
+/// Calls `build` for the agent of `seeds` of task `t` (`seed`: the first).
+fn make(
+    py: Python<'_>,
+    build: &Py<PyAny>,
+    t: &TaskInfo,
+    n_states: usize,
+    n_actions: usize,
+    seeds: &[u64],
+) -> PyResult<Py<PyAny>> {
+    let kw = PyDict::new(py);
+    kw.set_item("name", &t.name)?;
+    kw.set_item("n_states", n_states)?;
+    kw.set_item("n_actions", n_actions)?;
+    kw.set_item("seed", seeds[0])?;
+    kw.set_item("seeds", seeds)?;
+    kw.set_item("max_delay", t.max_delay)?;
+    kw.set_item("epsilon", t.epsilon)?;
+    kw.set_item("q0", t.q0)?;
+    build.call(py, (), Some(&kw))
+}
+
+/// Whether `agent` is batched: it has `act_batch` and `observe_batch`.
+fn is_batched(agent: &Bound<'_, PyAny>) -> bool {
+    ["act_batch", "observe_batch"].iter().all(|m| agent.getattr(*m).is_ok_and(|f| f.is_callable()))
+}
+
 /// Runs `work` on a worker thread of a one-thread pool, attached to Python but without
 /// the GIL; meanwhile this thread waits without the GIL and turns Ctrl-C into a stop.
 fn in_worker<T: Send>(py: Python<'_>, shared: &Shared, work: impl FnOnce() -> T + Send) -> PyResult<T> {
@@ -73,7 +104,8 @@ fn in_worker<T: Send>(py: Python<'_>, shared: &Shared, work: impl FnOnce() -> T 
 
 /// Runs the agent `build` makes on every pending seed of `tier`, writes
 /// `out/results.json` and returns its path. `build(name=, n_states=, n_actions=, seed=,
-/// max_delay=, epsilon=, q0=)` returns the agent of one seed.
+/// seeds=, max_delay=, epsilon=, q0=)` returns the agent of `seeds` (`seed` the first):
+/// of one seed, or batched.
 #[pyfunction]
 #[pyo3(signature = (build, tier, out, name, suite, tasks=None, time_limit_s=None))]
 pub fn suite_evaluate(
@@ -115,27 +147,52 @@ pub fn suite_evaluate(
         })
         .collect();
     let shared = Arc::new(Shared::default());
+    // Whether the agent is batched is known once one is made: the first pending task's
+    // agent is made for all its pending seeds, and kept as the agent of its first seed
+    // if it is not batched.
+    let pending = pending_jobs(&spec, &out, None);
+    let probe = match pending.first() {
+        Some(&(c, _)) => {
+            let seeds: Vec<u64> = pending.iter().filter(|j| j.0 == c).map(|j| j.1).collect();
+            let (n_states, n_actions) =
+                table_shape(spec.config(c), spec.world(c)).map_err(|e| lab_err("suite", e))?;
+            let made = make(py, &build, &infos[c], n_states, n_actions, &seeds);
+            let batched = made.as_ref().is_ok_and(|a| is_batched(a.bind(py)));
+            Some((c, seeds, batched, made))
+        }
+        None => None,
+    };
+    let batched = probe.as_ref().is_some_and(|p| p.2);
+    let probe = std::sync::Mutex::new(probe);
+    // The probe's agent, if it is the one for (cell, seeds).
+    let take_probe = |c: usize, seeds: &[u64]| -> Option<PyResult<Py<PyAny>>> {
+        let mut g = probe.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        let hit = g.as_ref().is_some_and(|p| p.0 == c && (if p.2 { &p.1[..] } else { &p.1[..1] }) == seeds);
+        if hit { g.take().map(|p| p.3) } else { None }
+    };
     let factory = |c: usize, n_states: usize, n_actions: usize, seed: u64| {
         Python::attach(|py| -> Result<Box<dyn Learner>, LabError> {
-            let t = &infos[c];
-            let make = || {
-                let kw = PyDict::new(py);
-                kw.set_item("name", &t.name)?;
-                kw.set_item("n_states", n_states)?;
-                kw.set_item("n_actions", n_actions)?;
-                kw.set_item("seed", seed)?;
-                kw.set_item("max_delay", t.max_delay)?;
-                kw.set_item("epsilon", t.epsilon)?;
-                kw.set_item("q0", t.q0)?;
-                build.call(py, (), Some(&kw))
-            };
-            Ok(Box::new(PyAgent::build(py, make, n_actions, shared.clone(), time_limit_s)))
+            let made = take_probe(c, &[seed])
+                .unwrap_or_else(|| make(py, &build, &infos[c], n_states, n_actions, &[seed]));
+            Ok(Box::new(PyAgent::build(py, || made, n_actions, shared.clone(), time_limit_s)))
         })
     };
+    let batches = |c: usize, n_states: usize, n_actions: usize, seeds: &[u64]| {
+        Python::attach(|py| -> Result<Box<dyn BatchLearner>, LabError> {
+            let made = take_probe(c, seeds)
+                .unwrap_or_else(|| make(py, &build, &infos[c], n_states, n_actions, seeds));
+            Ok(Box::new(PyBatch::new(py, made, seeds, n_actions, shared.clone(), time_limit_s)))
+        })
+    };
+    drop(pending);
     let outcome = in_worker(py, &shared, || {
         let progress = |_: u64| {};
         let ctl = Control { stop: &shared.stop, progress: &progress };
-        run_sweep_with(&spec, &out, None, ctl, &|_| {}, Some(&factory))
+        if batched {
+            run_sweep_batched(&spec, &out, None, ctl, &|_| {}, &batches)
+        } else {
+            run_sweep_with(&spec, &out, None, ctl, &|_| {}, Some(&factory))
+        }
     })?;
     let results = results_of_dir(&out).map_err(|e| lab_err("out", e))?;
     let path = write_results(&out, &results).map_err(|e| lab_err("out", e))?;

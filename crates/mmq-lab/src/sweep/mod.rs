@@ -40,7 +40,10 @@ pub use report::{
     CellStats, HEADLINE, ROBOT_COLUMNS, axis_number, cell_stats, combine, combined_markdown, learner_labels,
     learner_markdown, results_csv, robot_markdown, settings, summary_csv, summary_markdown,
 };
-pub use run::{CellLearners, EventSink, SweepEvent, SweepOutcome, run_sweep, run_sweep_with};
+pub use run::{
+    CellBatches, CellLearners, EventSink, SweepEvent, SweepOutcome, pending_jobs, run_sweep,
+    run_sweep_batched, run_sweep_with,
+};
 pub use spec::SweepSpec;
 pub use store::{Manifest, load_failures, load_results, read_manifest};
 

@@ -11,11 +11,12 @@ use rayon::prelude::*;
 use super::plan::Shard;
 use super::spec::SweepSpec;
 use super::store::{finish_dir, read_job, write_failed_job, write_job};
+use crate::batch::{BatchLearner, run_batch};
 use crate::config::RunConfig;
 use crate::error::LabError;
 use crate::exec::{Job, baselines_needed, run_jobs};
 use crate::output::write_atomic;
-use crate::runner::{Control, LearnerFactory, Trajectory};
+use crate::runner::{Control, LearnerFactory, SeedResult, Trajectory, memory_limit};
 use crate::summary::seed_metrics;
 
 /// What a sweep reports while it runs (the CLI prints it).
@@ -60,6 +61,12 @@ pub type EventSink<'a> = dyn Fn(&SweepEvent<'_>) + Sync + 'a;
 pub type CellLearners<'a> =
     dyn Fn(usize, usize, usize, u64) -> Result<Box<dyn mmq_learn::Learner>, LabError> + Sync + 'a;
 
+/// Builds the batched learner of the seeds of cell `cell` in place of the spec's: called
+/// with the cell's index, the numbers of states and actions, and the seeds (see
+/// [`crate::batch::BatchFactory`]).
+pub type CellBatches<'a> =
+    dyn Fn(usize, usize, usize, &[u64]) -> Result<Box<dyn BatchLearner>, LabError> + 'a;
+
 /// What [`run_sweep`] did.
 #[derive(Clone, Debug)]
 pub struct SweepOutcome {
@@ -100,6 +107,35 @@ pub(super) fn curve_points(run: &Trajectory, steps: u64, points: u64) -> Vec<(St
     out
 }
 
+/// Runs `jobs` (of the plan's jobs `pending`) a cell at a time, the seeds of a cell in
+/// one batch, handing each seed's result to `done`; stops before the next batch on the
+/// stop flag, and at the first error.
+fn run_batches(
+    jobs: &[Job<'_>],
+    pending: &[usize],
+    plan: &super::plan::Plan,
+    batches: &CellBatches<'_>,
+    ctl: Control<'_>,
+    done: &dyn Fn(usize, SeedResult) -> Result<(), LabError>,
+) -> Result<(), LabError> {
+    let limit = memory_limit(1);
+    let mut start = 0;
+    while start < jobs.len() && !ctl.stop.load(Ordering::Relaxed) {
+        let c = plan.job(pending[start]).0;
+        let end = start + pending[start..].iter().take_while(|&&j| plan.job(j).0 == c).count();
+        let j = &jobs[start];
+        let seeds: Vec<u64> = jobs[start..end].iter().map(|j| j.seed).collect();
+        let factory =
+            |n_states: usize, n_actions: usize, seeds: &[u64]| batches(c, n_states, n_actions, seeds);
+        let results = run_batch(j.cfg, j.world, j.dist, &seeds, &factory, ctl, limit)?;
+        for (k, r) in results.into_iter().enumerate() {
+            done(start + k, r)?;
+        }
+        start = end;
+    }
+    Ok(())
+}
+
 /// Runs the jobs of `shard` (all without) that `out` does not hold yet, writing each
 /// result as it finishes, then `results.csv` and `sweep.json`. Stops early (leaving
 /// every finished result) when `ctl.stop` is set. Holds `out`'s lock ([`crate::lock`])
@@ -125,6 +161,53 @@ pub fn run_sweep_with(
     events: &EventSink<'_>,
     learners: Option<&CellLearners<'_>>,
 ) -> Result<SweepOutcome, LabError> {
+    run_sweep_how(spec, out, shard, ctl, events, How::Each(learners))
+}
+
+/// [`run_sweep`] with the pending seeds of each cell run together in lockstep
+/// ([`crate::batch::run_batch`]) by the batched learner `batches` builds for them
+/// (called with the cell's index, the numbers of states and actions, and the seeds),
+/// one cell after another on the calling thread. Results are written as
+/// [`run_sweep_with`] writes them: each seed of a batch as failed (its learner failed
+/// it), finished, or not at all (cut short by the stop flag).
+pub fn run_sweep_batched(
+    spec: &SweepSpec,
+    out: &Path,
+    shard: Option<Shard>,
+    ctl: Control<'_>,
+    events: &EventSink<'_>,
+    batches: &CellBatches<'_>,
+) -> Result<SweepOutcome, LabError> {
+    run_sweep_how(spec, out, shard, ctl, events, How::Batched(batches))
+}
+
+/// The jobs of pending seeds in `out` of `shard` of `spec`: (cell, seed) pairs in plan
+/// order. (Read without the output folder's lock: a look before a run.)
+pub fn pending_jobs(spec: &SweepSpec, out: &Path, shard: Option<Shard>) -> Vec<(usize, u64)> {
+    let plan = &spec.plan;
+    (0..plan.jobs())
+        .filter(|&j| shard.is_none_or(|s| s.contains(j)) && read_job(out, plan, j).is_none())
+        .map(|j| plan.job(j))
+        .collect()
+}
+
+/// How the learners of a sweep's jobs are made.
+#[derive(Clone, Copy)]
+enum How<'a> {
+    /// Each job's own: the spec's, or the factory's.
+    Each(Option<&'a CellLearners<'a>>),
+    /// One batched learner for the pending seeds of each cell.
+    Batched(&'a CellBatches<'a>),
+}
+
+fn run_sweep_how(
+    spec: &SweepSpec,
+    out: &Path,
+    shard: Option<Shard>,
+    ctl: Control<'_>,
+    events: &EventSink<'_>,
+    how: How<'_>,
+) -> Result<SweepOutcome, LabError> {
     let plan = &spec.plan;
     let spec_file = spec.file.display().to_string();
     let _lock = crate::lock::lock_out_dir(out)?;
@@ -137,11 +220,11 @@ pub fn run_sweep_with(
     let skipped = here.len() - pending.len();
 
     let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
-    let per_cell: Vec<Box<LearnerFactory<'_>>> = match learners {
-        Some(f) => (0..plan.cells.len())
+    let per_cell: Vec<Box<LearnerFactory<'_>>> = match how {
+        How::Each(Some(f)) => (0..plan.cells.len())
             .map(|c| Box::new(move |s, a, seed| f(c, s, a, seed)) as Box<LearnerFactory<'_>>)
             .collect(),
-        None => Vec::new(),
+        How::Each(None) | How::Batched(_) => Vec::new(),
     };
     let jobs: Vec<Job<'_>> = pending
         .iter()
@@ -167,7 +250,7 @@ pub fn run_sweep_with(
         .map(|c| crate::summary::ceiling_per_step(spec.config(c), spec.world(c)))
         .collect();
     let finished = AtomicUsize::new(0);
-    let ran = run_jobs(&jobs, ctl, &|i, r| {
+    let done = |i: usize, r: SeedResult| -> Result<(), LabError> {
         let j = pending[i];
         let (c, seed) = plan.job(j);
         if let Some(e) = &r.failure {
@@ -189,7 +272,11 @@ pub fn run_sweep_with(
             wall_s: r.wall_time_s,
         });
         Ok(())
-    });
+    };
+    let ran = match how {
+        How::Each(_) => run_jobs(&jobs, ctl, &done),
+        How::Batched(f) => run_batches(&jobs, &pending, plan, f, ctl, &done),
+    };
 
     let (results_csv, rows, jobs_here, done) = finish_dir(out, plan, &spec_file, shard)?;
     ran?;

@@ -22,14 +22,16 @@ Example::
             self.q[state, action] += 0.1 * (target - self.q[state, action])
 
     results = mmq.suite.evaluate(Q, tier="lite", out="suite/my-q", name="my-q")
-"""
+
+An agent with ``act_batch`` and ``observe_batch`` plays all the seeds of a task at once
+(docs/suite.md, "Batched agents")."""
 
 from __future__ import annotations
 
 import json
 import os
 from dataclasses import dataclass
-from typing import Any, Callable, Optional, Sequence
+from typing import Any, Callable, Optional, Sequence, Tuple
 
 from mmq import _mmq
 
@@ -38,14 +40,16 @@ __all__ = ["Task", "evaluate"]
 
 @dataclass(frozen=True)
 class Task:
-    """What an agent is told about one seed of one task.
+    """What an agent is told about the seeds of one task it is made for.
 
     ``name``: the task's name; ``n_states``, ``n_actions``: the table's shape (states
     are ``0..n_states``, actions ``0..n_actions``); ``seed``: the master seed (seed your
-    own randomness with it); ``max_delay``: delays stay below it (``None`` if the task
-    gives none). ``epsilon`` and ``q0`` are the task's exploration rate and initial value
-    for an ε-greedy tabular agent: the protocol's suggestion, which the built-in learners
-    follow; exploration is the agent's own business."""
+    own randomness with it); ``seeds``: the master seeds of a batched agent, in the order
+    of its arrays (``seed`` is the first; an agent of one seed plays ``seed`` only);
+    ``max_delay``: delays stay below it (``None`` if the task gives none). ``epsilon``
+    and ``q0`` are the task's exploration rate and initial value for an ε-greedy tabular
+    agent: the protocol's suggestion, which the built-in learners follow; exploration is
+    the agent's own business."""
 
     name: str
     n_states: int
@@ -54,6 +58,7 @@ class Task:
     max_delay: Optional[int]
     epsilon: float
     q0: float
+    seeds: Tuple[int, ...] = ()
 
 
 def evaluate(
@@ -77,6 +82,18 @@ def evaluate(
     for the final greedy evaluation (without it, ``act`` is used). A new agent is made
     for every seed.
 
+    A batched agent has ``act_batch(states) -> actions``,
+    ``observe_batch(states, actions, rewards, next_states, infos)`` and, optionally,
+    ``greedy_batch(states) -> actions``: it is made once per task for all its pending
+    seeds (``task.seeds``), which step together; the arguments are read-only NumPy
+    arrays of one entry per seed (``int64``; ``rewards`` ``float64``; ``infos`` a dict
+    of the arrays ``t`` and ``time_s``), reused from call to call (copy what you keep),
+    and ``actions`` is one int per seed. Each seed gets the results it would get from
+    the same decisions made one seed at a time. An exception of a batched call fails
+    every seed of its task's batch; a bad action fails its seed only; the time limit is
+    ``time_limit_s`` per seed of the batch; an interrupted batch is run again from its
+    start by the next call.
+
     An exception of the agent (or of ``make_agent``), an action that is not an int or is
     out of range, or a seed over ``time_limit_s`` seconds of wall time fails that seed
     only: it is recorded with the error and the other seeds go on. Finished and failed
@@ -93,6 +110,7 @@ def evaluate(
         tasks = [str(t) for t in tasks]
 
     def build(**kw: Any) -> Any:
+        kw["seeds"] = tuple(kw["seeds"])
         return make_agent(Task(**kw))
 
     path = _mmq.suite_evaluate(
