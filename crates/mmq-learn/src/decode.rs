@@ -29,9 +29,9 @@
 
 use std::collections::HashMap;
 
-use crate::Diagnostics;
-use crate::Table;
 use crate::deconv::{DeconvConfig, Deconvolver, next_refit_after};
+use crate::diagnostics::Diagnostics;
+use crate::learner::Table;
 use crate::surprise::{self, Surprise};
 
 /// At most this many reward values.

@@ -74,9 +74,10 @@ use rand::RngExt;
 
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
-use crate::spec::Params;
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Decision, Experience, Learner, Table, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
 
 /// Model-based learner on counted transitions and deconvolved rewards.
 #[derive(Clone, Debug)]
@@ -555,7 +556,7 @@ impl Learner for DeconvModel {
 mod tests {
     use super::*;
     use crate::deconv_q::tests::tiny_config;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// The trace of the deconv-q test (R̂ = (4, 2) after t = 3), planned by (M1) with one
     /// Gauss–Seidel sweep per step in state order; γ = 0.5, q0 = 0.

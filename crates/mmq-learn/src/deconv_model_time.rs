@@ -34,8 +34,9 @@ use mmq_core::{Action, Rng, State};
 
 use crate::deconv::DeconvConfig;
 use crate::deconv_model::{DeconvModel, Probes};
-use crate::spec::Params;
-use crate::{Decision, Diagnostics, Experience, Learner, Table};
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Decision, Experience, Learner, Table};
+use crate::params::Params;
 
 /// Default bin width of `deconv-model-time`, seconds (the grid's default step period).
 pub const DEFAULT_TIME_BIN_S: f64 = 0.1;

@@ -14,9 +14,10 @@ use mmq_core::{Action, State};
 
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
-use crate::spec::Params;
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Experience, Learner, Table, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Diagnostics, Experience, Learner, Table, max_of};
 
 /// Q-learning on R̂.
 #[derive(Clone, Debug)]
@@ -114,7 +115,7 @@ impl Learner for DeconvQ {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// K = 1 and the told pmf p = (½, ½), no penalties, a refit after 4 steps; two
     /// states with one action alternating 0 → 1 → 0 → ...

@@ -8,10 +8,11 @@
 
 use mmq_core::{Action, State};
 
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Experience, Learner};
+use crate::params::Params;
 use crate::policy::greedy_value;
-use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Diagnostics, Experience, Learner};
 
 /// Fixed-delay-estimate Q-learning.
 #[derive(Clone, Debug)]
@@ -73,7 +74,7 @@ impl Learner for FixedDelayQ {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// λ̂ = 2: the reward received at t = 2 updates the pair of t = 0, with the max taken
     /// at that pair's own next state.

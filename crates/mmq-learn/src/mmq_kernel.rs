@@ -26,10 +26,11 @@
 use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Decision, Experience, Learner, Table, max_of};
 use crate::mmq_reference::{act_on_block, best_model_values, q_table};
+use crate::params::Params;
 use crate::policy::argmax_random_tie;
-use crate::spec::Params;
-use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
 
 /// Where the target's max looks (the `bootstrap` setting).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -190,7 +191,7 @@ impl Learner for KernelMmq {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
     use crate::mmq_reference::MmqReference;
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;

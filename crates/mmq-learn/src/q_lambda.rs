@@ -16,9 +16,10 @@
 
 use mmq_core::{Action, Rng, State};
 
-use crate::spec::Params;
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Decision, Experience, Learner, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Decision, Diagnostics, Experience, Learner, max_of};
 
 /// Traces below this are dropped (their effect is below 1e-6 of one update).
 pub const TRACE_CUTOFF: f64 = 1e-6;
@@ -137,7 +138,7 @@ impl Learner for QLambda {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
     use mmq_core::seed::rng_from_seed;
 
     /// α = 0.5, γ = 0.5, β = 0.5 (γβ = 0.25), q0 = 0, 3 states × 2 actions.

@@ -8,12 +8,9 @@ use mmq_core::DelayDist;
 use serde::{Deserialize, Serialize};
 
 use crate::deconv::{DeconvConfig, truncated_pmf};
+use crate::error::{LearnError, bad};
+use crate::kind::LearnerKind;
 use crate::mmq_kernel::Bootstrap;
-use crate::spec::{LearnError, LearnerKind};
-
-fn bad<T>(field: &'static str, value: impl ToString, accepted: &'static str) -> Result<T, LearnError> {
-    Err(LearnError::InvalidParam { field, value: value.to_string(), accepted })
-}
 
 /// Settings of a learner that has none beyond the shared parameters (`q`, `oracle`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -713,10 +710,10 @@ impl LearnerSettings {
     /// Builds the learner (after [`Self::validate`]).
     pub(crate) fn build(
         &self,
-        p: crate::spec::Params,
+        p: crate::params::Params,
         num_states: usize,
         num_actions: usize,
-    ) -> Result<Box<dyn crate::Learner>, LearnError> {
+    ) -> Result<Box<dyn crate::learner::Learner>, LearnError> {
         use crate::{deconv_model, deconv_model_time, deconv_q, fixed_delay, mmq, mmq_kernel, mmq_reference};
         use LearnerSettings as S;
         let (n, m) = (num_states, num_actions);

@@ -58,14 +58,15 @@ mod refit;
 mod reward_fit;
 mod stats;
 
+pub use crate::pmf::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 pub(crate) use counts::MAX_PAIRS;
-pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 pub(crate) use refit::next_refit_after;
 #[cfg(test)]
 use refit::{settled, weighted_passes};
 
+use crate::diagnostics::{DelayEstimate, Diagnostics};
+use crate::learner::Table;
 use crate::settings::DeconvSettings;
-use crate::{DelayEstimate, Diagnostics, Table};
 use stats::{LagStats, UNSEEN};
 use std::sync::Arc;
 
