@@ -1,6 +1,6 @@
 //! The core types every learner shares: the [`Learner`] trait, what it decides
 //! ([`Decision`]), what it learns from ([`Experience`], and the oracle's [`Truth`]), the
-//! tables it exports ([`Table`]), and [`max_of`].
+//! tables it exports ([`Table`]), and `max_of`.
 
 use mmq_core::{Action, Rng, State};
 

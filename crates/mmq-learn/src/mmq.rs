@@ -34,11 +34,26 @@
 //! reference's `[s][λ̂][a]` order.
 
 use mmq_core::{Action, Rng, State};
+use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
 use crate::learner::{Decision, Experience, Learner, Table};
 use crate::params::Params;
 use crate::policy::{epsilon_greedy, pick_tie_in};
+
+/// Settings of `mmq` and `mmq-reference`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MmqSettings {
+    /// λ̂max of Algorithm 1, steps: N = λ̂max + 1 models (paper: 50).
+    pub max_delay: usize,
+}
+
+impl Default for MmqSettings {
+    fn default() -> Self {
+        Self { max_delay: 50 }
+    }
+}
 
 /// The cached maximum of a set of table entries (a state's block or one column).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -534,8 +534,8 @@ mod tests {
     /// refit, `last` in its last one only (in both starts when there is one round).
     #[test]
     fn weighted_passes_by_round() {
+        use crate::deconv::WeightedRounds;
         use crate::deconv::{WEIGHTED_PASSES, weighted_passes};
-        use crate::settings::WeightedRounds;
         for (rule, rounds, want) in [
             (WeightedRounds::Every, 1, vec![WEIGHTED_PASSES]),
             (WeightedRounds::Every, 3, vec![WEIGHTED_PASSES; 3]),
@@ -553,7 +553,7 @@ mod tests {
     /// the end (a median standard error) and as close to the truth (median 4).
     #[test]
     fn weighted_rounds_reach_the_refit() {
-        use crate::settings::WeightedRounds;
+        use crate::deconv::WeightedRounds;
         let fit = |rule: WeightedRounds, rounds: u32| {
             let mut c = cfg(12, None);
             (c.settings.pmf_weighted, c.settings.pmf_weighted_rounds, c.settings.pmf_rounds) =

@@ -79,6 +79,10 @@ use crate::learner::{Decision, Experience, Learner, Table, max_of};
 use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
+mod settings;
+
+pub use settings::{DeconvModelSettings, ExploreSettings};
+
 /// Model-based learner on counted transitions and deconvolved rewards.
 #[derive(Clone, Debug)]
 pub struct DeconvModel {
