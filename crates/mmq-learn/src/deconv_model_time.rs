@@ -52,7 +52,7 @@ pub struct DeconvModelTimeSettings {
     pub explore: ExploreSettings,
     /// Width b of the time bins, seconds, in (0, 3600]. Default 0.1 s, the grid's step
     /// period. At most the shortest decision's duration, or decisions get moved to later
-    /// bins ([`crate::deconv_model_time`]).
+    /// bins (see the module comment).
     pub time_bin_s: f64,
 }
 

@@ -11,8 +11,8 @@
 //!
 //! [`DeconvModel::new`] builds the plain learner: a pair is known once N(x) ≥ m =
 //! `optimism_visits`, and it plans with (M1). The settings of `deconv-model`
-//! ([`crate::settings::DeconvModelSettings`]) turn on, by default, (M1′) and (M2) below
-//! ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`]).
+//! ([`DeconvModelSettings`], in `settings.rs` beside this file) turn on, by default, (M1′)
+//! and (M2) below ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`]).
 //!
 //! *Planning the ε-greedy values* (`plan_exploration`). The agent follows
 //! the ε-greedy policy, whose random action is uniform over the actions, so the value it
