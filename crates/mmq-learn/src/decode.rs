@@ -29,9 +29,9 @@
 
 use std::collections::HashMap;
 
-use crate::Diagnostics;
-use crate::Table;
-use crate::deconv::{DeconvConfig, Deconvolver, next_refit_after};
+use crate::deconv::{DeconvConfig, DeconvSettings, Deconvolver, next_refit_after};
+use crate::diagnostics::Diagnostics;
+use crate::learner::Table;
 use crate::surprise::{self, Surprise};
 
 /// At most this many reward values.
@@ -146,6 +146,16 @@ pub struct ValueDeconvolver {
 }
 
 impl ValueDeconvolver {
+    /// Table entries of a deconvolving learner with `settings` over `pairs` state-action pairs: Q, R̂ and
+    /// the lagged reward sums of every pair (worst case: all pairs visited), once per
+    /// reward value when decoding (worst case: MAX_VALUES of them); the sparse
+    /// co-occurrence counts grow with the run instead (at most 24 bytes × (K + 1) per
+    /// step, docs/performance.md).
+    pub(crate) fn table_entries(settings: &DeconvSettings, pairs: u128) -> u128 {
+        let copies = if settings.decode_values { MAX_VALUES as u128 } else { 1 };
+        2 * pairs + copies * Deconvolver::stats_bytes(pairs as usize, settings.max_delay).div_ceil(8)
+    }
+
     /// A reward model over `num_states` × `num_actions` pairs.
     pub fn new(cfg: DeconvConfig, num_states: usize, num_actions: usize) -> Self {
         let st = &cfg.settings;

@@ -31,11 +31,53 @@
 //! them); choose b at most the shortest decision.
 
 use mmq_core::{Action, Rng, State};
+use serde::{Deserialize, Serialize};
 
-use crate::deconv::DeconvConfig;
-use crate::deconv_model::{DeconvModel, Probes};
-use crate::spec::Params;
-use crate::{Decision, Diagnostics, Experience, Learner, Table};
+use crate::deconv::{DeconvConfig, DeconvSettings};
+use crate::deconv_model::{DeconvModel, ExploreSettings, Probes};
+use crate::diagnostics::Diagnostics;
+use crate::error::{LearnError, bad};
+use crate::learner::{Decision, Experience, Learner, Table};
+use crate::params::Params;
+
+/// Settings of `deconv-model-time`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DeconvModelTimeSettings {
+    /// The deconvolution; `max_delay` counts time bins.
+    #[serde(flatten)]
+    pub deconv: DeconvSettings,
+    /// Exploration.
+    #[serde(flatten)]
+    pub explore: ExploreSettings,
+    /// Width b of the time bins, seconds, in (0, 3600]. Default 0.1 s, the grid's step
+    /// period. At most the shortest decision's duration, or decisions get moved to later
+    /// bins (see the module comment).
+    pub time_bin_s: f64,
+}
+
+impl Default for DeconvModelTimeSettings {
+    fn default() -> Self {
+        Self {
+            deconv: DeconvSettings::default(),
+            explore: ExploreSettings::default(),
+            time_bin_s: DEFAULT_TIME_BIN_S,
+        }
+    }
+}
+
+impl DeconvModelTimeSettings {
+    /// Checks every setting's domain (the first failing field is reported).
+    pub(crate) fn validate(&self) -> Result<(), LearnError> {
+        self.deconv.validate()?;
+        self.explore.validate()?;
+        let b = self.time_bin_s;
+        if !(b.is_finite() && b > 0.0 && b <= 3600.0) {
+            return bad("time_bin_s", b, "use a bin width in seconds in (0, 3600], e.g. 0.1");
+        }
+        Ok(())
+    }
+}
 
 /// Default bin width of `deconv-model-time`, seconds (the grid's default step period).
 pub const DEFAULT_TIME_BIN_S: f64 = 0.1;

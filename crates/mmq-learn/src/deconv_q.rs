@@ -11,12 +11,44 @@
 //! learned again by the same rule (a one-transition replay; 0 turns it off).
 
 use mmq_core::{Action, State};
+use serde::{Deserialize, Serialize};
 
 use crate::decode::ValueDeconvolver;
-use crate::deconv::DeconvConfig;
-use crate::spec::Params;
+use crate::deconv::{DeconvConfig, DeconvSettings};
+use crate::diagnostics::Diagnostics;
+use crate::error::{LearnError, bad};
+use crate::learner::{Experience, Learner, Table, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Diagnostics, Experience, Learner, Table, max_of};
+
+/// Settings of `deconv-q`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct DeconvQSettings {
+    /// The deconvolution.
+    #[serde(flatten)]
+    pub deconv: DeconvSettings,
+    /// Each transition is learned again this many steps later, when R̂ has heard of its
+    /// reward (0: learned once, at once; at most 2^20). Default 50, as K.
+    pub replay_lag: usize,
+}
+
+impl Default for DeconvQSettings {
+    fn default() -> Self {
+        Self { deconv: DeconvSettings::default(), replay_lag: 50 }
+    }
+}
+
+impl DeconvQSettings {
+    /// Checks every setting's domain (the first failing field is reported).
+    pub(crate) fn validate(&self) -> Result<(), LearnError> {
+        self.deconv.validate()?;
+        if self.replay_lag > 1 << 20 {
+            return bad("replay_lag", self.replay_lag, "use a lag of at most 2^20 steps");
+        }
+        Ok(())
+    }
+}
 
 /// Q-learning on R̂.
 #[derive(Clone, Debug)]
@@ -114,35 +146,12 @@ impl Learner for DeconvQ {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// K = 1 and the told pmf p = (½, ½), no penalties, a refit after 4 steps; two
     /// states with one action alternating 0 → 1 → 0 → ...
     pub(crate) fn tiny_config() -> DeconvConfig {
-        let settings = crate::settings::DeconvSettings {
-            max_delay: 1,
-            reward_prior: 0.0,
-            lasso: 0.0,
-            significance: 0.0,
-            state_rewards: false,
-            successor_groups: false,
-            joint_test: 0.0,
-            pmf_weighted: false,
-            pmf_weighted_rounds: crate::settings::WeightedRounds::Every,
-            pmf_significance: 0.0,
-            pmf_prior: 0.0,
-            pmf_smoothness: 0.0,
-            refit_every: 4,
-            refit_growth: 8,
-            pmf_rounds: 1,
-            pmf_tolerance: 0.0,
-            cold_start_backoff: 0,
-            sparse_refits_below_se: 0.0,
-            settled_refit_growth: 3,
-            refit_on_surprise: 0.0,
-            decode_values: false,
-            told_delay: None,
-        };
+        let settings = DeconvSettings { refit_every: 4, ..DeconvSettings::unpenalised(1) };
         DeconvConfig { settings, told: Some(vec![0.5, 0.5]) }
     }
 

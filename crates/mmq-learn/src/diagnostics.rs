@@ -1,11 +1,11 @@
 //! Structured diagnostics of a learner at one moment: named figures (counters and
 //! settings) and, for learners that work with a delay pmf, the delay estimate itself.
 //!
-//! A learner reports what it knows *now* ([`crate::Learner::diagnostics`]); whoever runs
+//! A learner reports what it knows *now* ([`crate::learner::Learner::diagnostics`]); whoever runs
 //! it samples that on a schedule to get a time series (the lab's runner does). Names of
 //! output columns are not chosen here: the lab flattens these values into its files.
 
-use crate::deconv::MedianSe;
+use crate::pmf::{MedianSe, pmf_mean, pmf_median};
 
 /// What a learner reports about itself at one moment.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -33,9 +33,9 @@ pub struct DelayEstimate {
     /// p̂ over lags 0..=K; a lag counts decision steps, or time bins of `time_bin_s`
     /// seconds for a learner on time bins.
     pub pmf: Vec<f64>,
-    /// Mean of p̂, lags ([`crate::deconv::pmf_mean`]).
+    /// Mean of p̂, lags ([`pmf_mean`]).
     pub mean: f64,
-    /// Median of p̂, lags ([`crate::deconv::pmf_median`]).
+    /// Median of p̂, lags ([`pmf_median`]).
     pub median: f64,
     /// Standard errors of the median from the last reweighted fit (`None` when unknown).
     pub median_se: Option<MedianSe>,
@@ -50,8 +50,8 @@ impl DelayEstimate {
     pub fn of_pmf(pmf: &[f64], median_se: Option<MedianSe>, estimated: bool) -> Self {
         Self {
             pmf: pmf.to_vec(),
-            mean: crate::deconv::pmf_mean(pmf),
-            median: crate::deconv::pmf_median(pmf),
+            mean: pmf_mean(pmf),
+            median: pmf_median(pmf),
             median_se,
             estimated,
             time_bin_s: None,

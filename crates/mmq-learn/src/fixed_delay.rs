@@ -7,11 +7,28 @@
 //! Poisson delay is near its mean). Steps t < λ̂ make no update.
 
 use mmq_core::{Action, State};
+use serde::{Deserialize, Serialize};
 
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Experience, Learner};
+use crate::params::Params;
 use crate::policy::greedy_value;
-use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Diagnostics, Experience, Learner};
+
+/// Settings of `fixed`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FixedSettings {
+    /// λ̂ of eq. (4), steps: the reward at t updates the pair from λ̂ steps ago. Default 13,
+    /// the mean of the paper's Poisson delay (assumption: the paper states no value).
+    pub lambda_hat: usize,
+}
+
+impl Default for FixedSettings {
+    fn default() -> Self {
+        Self { lambda_hat: 13 }
+    }
+}
 
 /// Fixed-delay-estimate Q-learning.
 #[derive(Clone, Debug)]
@@ -73,7 +90,7 @@ impl Learner for FixedDelayQ {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// λ̂ = 2: the reward received at t = 2 updates the pair of t = 0, with the max taken
     /// at that pair's own next state.

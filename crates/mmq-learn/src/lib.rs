@@ -16,6 +16,14 @@
 //!
 //! Architecture invariant: learners know no environment, no physics, no log format;
 //! exploration randomness comes in from the caller's stream.
+//!
+//! Shared by every learner: the core types ([`learner`]: [`Learner`], [`Decision`],
+//! [`Experience`], [`Table`]), the shared parameters ([`params`]), the delay estimate a
+//! learner reports ([`diagnostics`], [`pmf`]) and tabular helpers ([`table`], [`policy`]).
+//! Selection: [`kind`] (which learner), [`settings`] (each learner's own settings, tagged
+//! by kind, each struct defined beside its learner) and [`spec`] (settings and parameters,
+//! validated, built). This file only declares modules and re-exports; no module imports
+//! another in a circle (`tests/no_import_cycles.rs`).
 
 pub mod decode;
 pub mod deconv;
@@ -23,11 +31,16 @@ pub mod deconv_model;
 pub mod deconv_model_time;
 pub mod deconv_q;
 pub mod diagnostics;
+pub mod error;
 pub mod fixed_delay;
+pub mod kind;
+pub mod learner;
 pub mod mmq;
 pub mod mmq_kernel;
 pub mod mmq_reference;
 pub mod oracle;
+pub mod params;
+pub mod pmf;
 pub mod policy;
 pub mod q_lambda;
 pub mod qlearning;
@@ -39,105 +52,9 @@ mod surprise;
 pub mod table;
 
 pub use diagnostics::{DelayEstimate, Diagnostics};
+pub use error::LearnError;
+pub use kind::{LearnerKind, catalogue};
+pub use learner::{Decision, Experience, Learner, Table, Truth};
+pub use params::Params;
 pub use settings::LearnerSettings;
-pub use spec::{LearnError, LearnerKind, LearnerSpec, build, catalogue};
-
-use mmq_core::{Action, Rng, State};
-
-/// What the learner decided in a state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Decision {
-    /// The action to take.
-    pub action: Action,
-    /// The delay model acted on (MMQ's λ̂*), if the learner has models and acted greedily.
-    pub model: Option<usize>,
-    /// True when the action was drawn by ε-exploration.
-    pub explored: bool,
-}
-
-/// Ground truth the channel knows; only the oracle learner may read it.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Truth {
-    /// The reward emitted at this step, if it was non-zero (it is in flight now).
-    pub emitted_now: Option<f64>,
-    /// Emissions delivered at this step: (emission step, value).
-    pub delivered: Vec<(u64, f64)>,
-}
-
-/// One step as the learner sees it.
-#[derive(Clone, Copy, Debug)]
-pub struct Experience<'a> {
-    /// Decision step t (0, 1, 2, ...; consecutive).
-    pub t: u64,
-    /// s_t.
-    pub state: State,
-    /// a_t.
-    pub action: Action,
-    /// s_{t+1} (s').
-    pub next_state: State,
-    /// r_t: the reward delivered at t (a sum of delayed emissions, maybe 0).
-    pub reward: f64,
-    /// Simulated time at the end of step t, seconds since the run started (the robot's
-    /// physical clock; the grid's t × its nominal step period). Learners that count
-    /// steps ignore it.
-    pub time_s: f64,
-    /// Ground truth, given only to learners whose [`Learner::needs_truth`] is true.
-    pub truth: Option<&'a Truth>,
-}
-
-/// A named table of numbers for export (shape in C order).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Table {
-    /// File stem, e.g. `q` for `q.npy`.
-    pub name: String,
-    /// Dimensions, e.g. [states, models, actions].
-    pub shape: Vec<usize>,
-    /// Data in C order.
-    pub data: Vec<f64>,
-}
-
-/// A learning agent for the continuing task.
-pub trait Learner: Send + std::fmt::Debug {
-    /// Short name (as on the command line).
-    fn name(&self) -> &'static str;
-    /// Chooses the action in `state` (ε-greedy, ties at random).
-    fn act(&mut self, state: State, rng: &mut Rng) -> Decision;
-    /// Learns from one step.
-    fn observe(&mut self, exp: &Experience<'_>);
-    /// The greedy action (no exploration; ties at random).
-    fn greedy(&self, state: State, rng: &mut Rng) -> Action;
-    /// The action values the policy acts on in `state` (MMQ: those of its best model).
-    fn action_values(&self, state: State, out: &mut [f64]);
-    /// The Q-tables, for export.
-    fn tables(&self) -> Vec<Table>;
-    /// Whether the learner must be given [`Truth`] (only the oracle).
-    fn needs_truth(&self) -> bool {
-        false
-    }
-    /// What the learner reports about itself now: named figures and its delay estimate
-    /// (callers sample it on a schedule for a time series).
-    fn diagnostics(&self) -> Diagnostics {
-        Diagnostics::default()
-    }
-    /// Starts a new run: clears memories of past steps (tables are kept).
-    fn reset_history(&mut self) {}
-    /// Why the learner cannot go on, if it cannot: an agent from outside mmq (a Python
-    /// object, say) that raised or answered with an action out of range. The runner checks
-    /// it before every step and ends the seed as failed with this text. mmq's own learners
-    /// never fail.
-    fn failure(&self) -> Option<String> {
-        None
-    }
-}
-
-/// Maximum of a slice (NaN-free values).
-#[inline]
-pub(crate) fn max_of(xs: &[f64]) -> f64 {
-    xs.iter().copied().fold(f64::NEG_INFINITY, f64::max)
-}
-
-/// Test helper: the experience of step `t`, (s, a) → s2 with delivered reward `r`, no truth.
-#[cfg(test)]
-pub(crate) fn exp(t: u64, s: State, a: Action, s2: State, r: f64) -> Experience<'static> {
-    Experience { t, state: s, action: a, next_state: s2, reward: r, time_s: (t + 1) as f64, truth: None }
-}
+pub use spec::{LearnerSpec, build};

@@ -34,10 +34,26 @@
 //! reference's `[s][λ̂][a]` order.
 
 use mmq_core::{Action, Rng, State};
+use serde::{Deserialize, Serialize};
 
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Decision, Experience, Learner, Table};
+use crate::params::Params;
 use crate::policy::{epsilon_greedy, pick_tie_in};
-use crate::spec::Params;
-use crate::{Decision, Diagnostics, Experience, Learner, Table};
+
+/// Settings of `mmq` and `mmq-reference`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MmqSettings {
+    /// λ̂max of Algorithm 1, steps: N = λ̂max + 1 models (paper: 50).
+    pub max_delay: usize,
+}
+
+impl Default for MmqSettings {
+    fn default() -> Self {
+        Self { max_delay: 50 }
+    }
+}
 
 /// The cached maximum of a set of table entries (a state's block or one column).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -286,7 +302,7 @@ impl MultipleModelQ {
         let mut best = (f64::NEG_INFINITY, 0);
         for l in 0..self.n {
             self.row(s, l, &mut row);
-            let v = crate::max_of(&row);
+            let v = crate::learner::max_of(&row);
             if v > best.0 {
                 best = (v, l);
             }
@@ -417,7 +433,7 @@ impl MultipleModelQ {
     fn check_caches(&self) {
         let a_n = self.num_actions;
         let scan = |xs: &[f64]| {
-            let max = crate::max_of(xs);
+            let max = crate::learner::max_of(xs);
             (max, xs.iter().filter(|&&x| x == max).count() as u32, xs.iter().position(|&x| x == max).unwrap())
         };
         for s in 0..self.top.len() {
@@ -446,7 +462,7 @@ impl MultipleModelQ {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
     use crate::mmq_reference::MmqReference;
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;
@@ -564,7 +580,7 @@ mod tests {
     #[test]
     fn column_scan_counts_and_finds() {
         let plain = |col: &[f64]| {
-            let max = crate::max_of(col);
+            let max = crate::learner::max_of(col);
             let count = col.iter().filter(|&&x| x == max).count() as u32;
             let first = if count == 1 { col.iter().position(|&x| x == max).unwrap() as u32 } else { 0 };
             Top { max, count, first }

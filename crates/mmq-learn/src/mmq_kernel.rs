@@ -26,10 +26,46 @@
 use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
+use crate::diagnostics::Diagnostics;
+use crate::error::{LearnError, bad};
+use crate::learner::{Decision, Experience, Learner, Table, max_of};
 use crate::mmq_reference::{act_on_block, best_model_values, q_table};
+use crate::params::Params;
 use crate::policy::argmax_random_tie;
-use crate::spec::Params;
-use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
+
+/// Settings of `mmq-kernel`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct KernelSettings {
+    /// λ̂max, steps: N = λ̂max + 1 models (as `mmq`; default 50).
+    pub max_delay: usize,
+    /// Width h of the Gaussian kernel around the leading model, in steps of λ̂ (> 0;
+    /// `inf` gives every model full credit, as MMQ). Default 10, the best of
+    /// {1, 3, 5, 10, 20, 50, ∞} on 9×9 at Poisson 13 (docs/algorithms/mmq-kernel.md).
+    pub kernel_width: f64,
+    /// Where the target's max looks: `all` models (the paper), the updated model's `own`
+    /// row, or the `leader`'s.
+    pub bootstrap: Bootstrap,
+}
+
+impl Default for KernelSettings {
+    fn default() -> Self {
+        Self { max_delay: 50, kernel_width: 10.0, bootstrap: Bootstrap::All }
+    }
+}
+
+impl KernelSettings {
+    pub(crate) fn validate(&self) -> Result<(), LearnError> {
+        if self.kernel_width.is_nan() || self.kernel_width <= 0.0 {
+            return bad(
+                "kernel_width",
+                self.kernel_width,
+                "use a kernel width > 0 in steps of the delay estimate, e.g. 10 (inf: no kernel)",
+            );
+        }
+        Ok(())
+    }
+}
 
 /// Where the target's max looks (the `bootstrap` setting).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -190,7 +226,7 @@ impl Learner for KernelMmq {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
     use crate::mmq_reference::MmqReference;
     use mmq_core::seed::rng_from_seed;
     use rand::RngExt;

@@ -16,9 +16,9 @@
 
 use mmq_core::{Action, Rng, State};
 
+use crate::learner::{Decision, Experience, Learner, Table, max_of};
+use crate::params::Params;
 use crate::policy::{argmax_random_tie, epsilon_greedy};
-use crate::spec::Params;
-use crate::{Decision, Experience, Learner, Table, max_of};
 
 /// The plain transcription of Algorithm 1.
 #[derive(Clone, Debug)]

@@ -1,5 +1,5 @@
 //! `oracle`: Q-learning told the channel's ground truth — an **upper bound, not a real
-//! agent**. It reads [`Truth`](crate::Truth) (which emission fed which delivery), so
+//! agent**. It reads [`Truth`](crate::learner::Truth) (which emission fed which delivery), so
 //! every delivered reward is credited to the exact transition that earned it, on
 //! arrival:
 //!
@@ -15,11 +15,12 @@ use std::collections::HashMap;
 
 use mmq_core::{Action, State};
 
-use crate::spec::Params;
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Experience, Learner, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Diagnostics, Experience, Learner, max_of};
 
-/// Q-learning with true credit assignment (needs [`Truth`](crate::Truth)).
+/// Q-learning with true credit assignment (needs [`Truth`](crate::learner::Truth)).
 #[derive(Clone, Debug)]
 pub struct Oracle {
     p: Params,
@@ -103,7 +104,7 @@ impl Learner for Oracle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Truth;
+    use crate::learner::Truth;
 
     fn exp<'a>(t: u64, s: State, a: Action, s2: State, r: f64, truth: &'a Truth) -> Experience<'a> {
         Experience {

@@ -15,10 +15,37 @@
 //! exploratory action.
 
 use mmq_core::{Action, Rng, State};
+use serde::{Deserialize, Serialize};
 
-use crate::spec::Params;
+use crate::diagnostics::Diagnostics;
+use crate::error::{LearnError, bad};
+use crate::learner::{Decision, Experience, Learner, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Decision, Diagnostics, Experience, Learner, max_of};
+
+/// Settings of `q-lambda` and `sarsa-lambda`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TraceSettings {
+    /// Trace decay in [0, 1] (called λ in Sutton & Barto; named `trace_decay` here so
+    /// that it is not confused with the Poisson delay λ). Default 0.9 (assumption).
+    pub trace_decay: f64,
+}
+
+impl Default for TraceSettings {
+    fn default() -> Self {
+        Self { trace_decay: 0.9 }
+    }
+}
+
+impl TraceSettings {
+    pub(crate) fn validate(&self) -> Result<(), LearnError> {
+        if !(0.0..=1.0).contains(&self.trace_decay) {
+            return bad("trace_decay", self.trace_decay, "use a trace decay in [0, 1], e.g. 0.9");
+        }
+        Ok(())
+    }
+}
 
 /// Traces below this are dropped (their effect is below 1e-6 of one update).
 pub const TRACE_CUTOFF: f64 = 1e-6;
@@ -137,7 +164,7 @@ impl Learner for QLambda {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
     use mmq_core::seed::rng_from_seed;
 
     /// α = 0.5, γ = 0.5, β = 0.5 (γβ = 0.25), q0 = 0, 3 states × 2 actions.

@@ -7,10 +7,10 @@
 
 use mmq_core::{Action, State};
 
+use crate::learner::{Experience, Learner};
+use crate::params::Params;
 use crate::policy::greedy_value;
-use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Experience, Learner};
 
 /// Tabular Q-learning.
 #[derive(Clone, Debug)]
@@ -58,7 +58,7 @@ impl Learner for QLearning {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// Two hand-computed updates of eq. (2) with α = 0.1, γ = 0.9, q0 = 0.
     #[test]

@@ -14,10 +14,11 @@
 
 use mmq_core::{Action, State};
 
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Experience, Learner};
+use crate::params::Params;
 use crate::q_lambda::Traces;
-use crate::spec::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Diagnostics, Experience, Learner};
 
 /// SARSA(λ).
 #[derive(Clone, Debug)]
@@ -85,7 +86,7 @@ impl Learner for SarsaLambda {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// α = 0.5, γ = 0.5, β = 0.5 (γβ = 0.25), q0 = 0, 3 states × 2 actions.
     #[test]

@@ -6,7 +6,7 @@
 
 use std::ops::{Deref, DerefMut};
 
-/// The [`Learner`](crate::Learner) methods every learner acting on one [`QTable`] shares,
+/// The [`Learner`](crate::learner::Learner) methods every learner acting on one [`QTable`] shares,
 /// written once: inside `impl Learner for L`, `q_table_methods!(q);` gives `greedy` and
 /// `action_values` over the table in field `q`; `q_table_methods!(q, tables);` adds
 /// `tables` (the table, exported as "q"); `q_table_methods!(q, tables, act(p));` adds
@@ -27,32 +27,32 @@ macro_rules! q_table_methods {
     ($q:ident, tables) => {
         q_table_methods!($q);
 
-        fn tables(&self) -> Vec<crate::Table> {
+        fn tables(&self) -> Vec<crate::learner::Table> {
             vec![self.$q.export("q")]
         }
     };
     ($q:ident, act($p:ident)) => {
         q_table_methods!($q);
 
-        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::Decision {
+        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::learner::Decision {
             let (action, explored) = self.$q.epsilon_greedy(s, self.$p.epsilon, rng);
-            crate::Decision { action, model: None, explored }
+            crate::learner::Decision { action, model: None, explored }
         }
     };
     ($q:ident, tables, act($p:ident)) => {
         q_table_methods!($q, tables);
 
-        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::Decision {
+        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::learner::Decision {
             let (action, explored) = self.$q.epsilon_greedy(s, self.$p.epsilon, rng);
-            crate::Decision { action, model: None, explored }
+            crate::learner::Decision { action, model: None, explored }
         }
     };
     ($q:ident, tables, act($p:ident, model = $m:ident)) => {
         q_table_methods!($q, tables);
 
-        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::Decision {
+        fn act(&mut self, s: mmq_core::State, rng: &mut mmq_core::Rng) -> crate::learner::Decision {
             let (action, explored) = self.$q.epsilon_greedy(s, self.$p.epsilon, rng);
-            crate::Decision { action, model: Some(self.$m), explored }
+            crate::learner::Decision { action, model: Some(self.$m), explored }
         }
     };
 }
@@ -60,7 +60,7 @@ pub(crate) use q_table_methods;
 
 use mmq_core::{Action, Rng, State};
 
-use crate::Table;
+use crate::learner::Table;
 use crate::policy::{argmax_random_tie, epsilon_greedy};
 
 /// Q(s, a) for `num_states` × `num_actions`, row-major.

@@ -56,16 +56,18 @@ mod pmf_fit;
 mod qp;
 mod refit;
 mod reward_fit;
+mod settings;
 mod stats;
 
+pub use crate::pmf::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 pub(crate) use counts::MAX_PAIRS;
-pub use pmf_fit::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 pub(crate) use refit::next_refit_after;
 #[cfg(test)]
 use refit::{settled, weighted_passes};
+pub use settings::{DeconvSettings, WeightedRounds};
 
-use crate::settings::DeconvSettings;
-use crate::{DelayEstimate, Diagnostics, Table};
+use crate::diagnostics::{DelayEstimate, Diagnostics};
+use crate::learner::Table;
 use stats::{LagStats, UNSEEN};
 use std::sync::Arc;
 
@@ -399,31 +401,7 @@ pub(crate) mod tests {
     use rand::RngExt;
 
     pub(crate) fn cfg(k: usize, told: Option<Vec<f64>>) -> DeconvConfig {
-        let settings = DeconvSettings {
-            max_delay: k,
-            reward_prior: 0.0,
-            lasso: 0.0,
-            significance: 0.0,
-            state_rewards: false,
-            successor_groups: false,
-            joint_test: 0.0,
-            pmf_weighted: false,
-            pmf_weighted_rounds: crate::settings::WeightedRounds::Every,
-            pmf_significance: 0.0,
-            pmf_prior: 0.0,
-            pmf_smoothness: 0.0,
-            refit_every: 1_000_000,
-            refit_growth: 8,
-            pmf_rounds: 1,
-            pmf_tolerance: 0.0,
-            cold_start_backoff: 0,
-            sparse_refits_below_se: 0.0,
-            settled_refit_growth: 3,
-            refit_on_surprise: 0.0,
-            decode_values: false,
-            told_delay: None,
-        };
-        DeconvConfig { settings, told }
+        DeconvConfig { settings: DeconvSettings::unpenalised(k), told }
     }
 
     /// The sign constraint of one reward value's deconvolver, by hand. Told p = (½, ½),

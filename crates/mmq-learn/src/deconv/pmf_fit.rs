@@ -1,43 +1,11 @@
-//! The delay pmf: its summaries (mean, median and the median's standard error), the fit of
-//! p given R̂ (a quadratic programme over the simplex, [`super::qp`], then reweighted
-//! passes on the stored history) and its helpers.
-
-use mmq_core::DelayDist;
+//! The fit of the delay pmf: p given R̂ (a quadratic programme over the simplex,
+//! [`super::qp`], then reweighted passes on the stored history), the standard error of
+//! its median, and their helpers ([`crate::pmf`] has the pmf's other summaries).
 
 use super::Deconvolver;
 use super::qp::{add_roughness, solve_pmf};
 use super::stats::LagStats;
-
-/// The delay pmf of `dist` over 0..=`max_delay`, the tail beyond folded into the last bin.
-pub fn truncated_pmf(dist: &DelayDist, max_delay: usize) -> Vec<f64> {
-    let mut p: Vec<f64> = (0..=max_delay as u32).map(|k| dist.pmf(k)).collect();
-    let total: f64 = p.iter().sum();
-    if let Some(last) = p.last_mut() {
-        *last += (1.0 - total).max(0.0);
-    }
-    p
-}
-
-/// Mean of a pmf over 0, 1, 2, ...
-pub fn pmf_mean(p: &[f64]) -> f64 {
-    let s: f64 = p.iter().sum();
-    p.iter().enumerate().map(|(k, x)| k as f64 * x).sum::<f64>() / s
-}
-
-/// Median of a pmf over 0, 1, 2, ..., interpolated inside the bin where the cumulative
-/// probability crosses one half (each bin k spread uniformly over [k − ½, k + ½]).
-pub fn pmf_median(p: &[f64]) -> f64 {
-    let s: f64 = p.iter().sum();
-    let mut acc = 0.0;
-    for (k, &x) in p.iter().enumerate() {
-        let x = x / s;
-        if x > 0.0 && acc + x >= 0.5 {
-            return k as f64 - 0.5 + (0.5 - acc) / x;
-        }
-        acc += x;
-    }
-    p.len() as f64 - 0.5
-}
+use crate::pmf::{MedianSe, pmf_median};
 
 /// A least-squares system ½ pᵀAp − cᵀp of the pmf fit: (A, c).
 type System = (Vec<f64>, Vec<f64>);
@@ -84,15 +52,6 @@ pub(crate) fn median_se(a: &[f64], nu: f64, p: &[f64]) -> Option<MedianSe> {
     let f = p[lo..=hi].iter().sum::<f64>() / (hi - lo + 1) as f64;
     let cdf = var.max(0.0).sqrt();
     cdf.is_finite().then(|| MedianSe { cdf, steps: if f > 0.0 { cdf / f } else { f64::INFINITY } })
-}
-
-/// Standard errors of the median m̂ of a delay estimate (`median_se`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MedianSe {
-    /// Of the cumulative probability F(m̂).
-    pub cdf: f64,
-    /// Of m̂ itself, steps.
-    pub steps: f64,
 }
 
 impl Deconvolver {
@@ -575,8 +534,8 @@ mod tests {
     /// refit, `last` in its last one only (in both starts when there is one round).
     #[test]
     fn weighted_passes_by_round() {
+        use crate::deconv::WeightedRounds;
         use crate::deconv::{WEIGHTED_PASSES, weighted_passes};
-        use crate::settings::WeightedRounds;
         for (rule, rounds, want) in [
             (WeightedRounds::Every, 1, vec![WEIGHTED_PASSES]),
             (WeightedRounds::Every, 3, vec![WEIGHTED_PASSES; 3]),
@@ -594,7 +553,7 @@ mod tests {
     /// the end (a median standard error) and as close to the truth (median 4).
     #[test]
     fn weighted_rounds_reach_the_refit() {
-        use crate::settings::WeightedRounds;
+        use crate::deconv::WeightedRounds;
         let fit = |rule: WeightedRounds, rounds: u32| {
             let mut c = cfg(12, None);
             (c.settings.pmf_weighted, c.settings.pmf_weighted_rounds, c.settings.pmf_rounds) =

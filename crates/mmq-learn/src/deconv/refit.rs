@@ -9,8 +9,7 @@
 //! may be the one kept. Nothing it computes depends on that: the fits are those of the
 //! sequential order, bit for bit, on any number of threads.
 
-use super::{Deconvolver, WEIGHTED_PASSES, gram};
-use crate::settings::{DeconvSettings, WeightedRounds};
+use super::{DeconvSettings, Deconvolver, WEIGHTED_PASSES, WeightedRounds, gram};
 use crate::spare;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 

@@ -11,8 +11,8 @@
 //!
 //! [`DeconvModel::new`] builds the plain learner: a pair is known once N(x) ≥ m =
 //! `optimism_visits`, and it plans with (M1). The settings of `deconv-model`
-//! ([`crate::settings::DeconvModelSettings`]) turn on, by default, (M1′) and (M2) below
-//! ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`]).
+//! ([`DeconvModelSettings`], in `settings.rs` beside this file) turn on, by default, (M1′)
+//! and (M2) below ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`]).
 //!
 //! *Planning the ε-greedy values* (`plan_exploration`). The agent follows
 //! the ε-greedy policy, whose random action is uniform over the actions, so the value it
@@ -74,9 +74,14 @@ use rand::RngExt;
 
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
-use crate::spec::Params;
+use crate::diagnostics::Diagnostics;
+use crate::learner::{Decision, Experience, Learner, Table, max_of};
+use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
-use crate::{Decision, Diagnostics, Experience, Learner, Table, max_of};
+
+mod settings;
+
+pub use settings::{DeconvModelSettings, ExploreSettings};
 
 /// Model-based learner on counted transitions and deconvolved rewards.
 #[derive(Clone, Debug)]
@@ -555,7 +560,7 @@ impl Learner for DeconvModel {
 mod tests {
     use super::*;
     use crate::deconv_q::tests::tiny_config;
-    use crate::exp;
+    use crate::learner::exp;
 
     /// The trace of the deconv-q test (R̂ = (4, 2) after t = 3), planned by (M1) with one
     /// Gauss–Seidel sweep per step in state order; γ = 0.5, q0 = 0.
