@@ -40,7 +40,11 @@ fn mmq_dependencies(manifest: &Path) -> Vec<String> {
 }
 
 fn manifest(krate: &str) -> PathBuf {
-    if krate == "mmq" { root().join("Cargo.toml") } else { root().join("crates").join(krate).join("Cargo.toml") }
+    if krate == "mmq" {
+        root().join("Cargo.toml")
+    } else {
+        root().join("crates").join(krate).join("Cargo.toml")
+    }
 }
 
 #[test]
@@ -113,7 +117,11 @@ fn no_library_prints() {
             offenders.push(format!("{}:{n}: {l}", f.strip_prefix(root()).unwrap_or(f).display()));
         }
     }
-    assert!(offenders.is_empty(), "libraries print (return text, or use a Progress):\n{}", offenders.join("\n"));
+    assert!(
+        offenders.is_empty(),
+        "libraries print (return text, or use a Progress):\n{}",
+        offenders.join("\n")
+    );
 }
 
 /// The print finder finds prints and skips comments, tests and look-alikes.

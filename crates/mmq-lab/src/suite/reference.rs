@@ -32,8 +32,10 @@ use crate::sweep::SweepSpec;
 pub const NAME: &str = "grid-optimal";
 
 /// Shipped references: (suite, tier, the results file's text).
-const SHIPPED: &[(&str, &str, &str)] =
-    &[("v1", "lite", include_str!("../../../../worlds/suites/v1/reference-lite.json"))];
+const SHIPPED: &[(&str, &str, &str)] = &[
+    ("v1", "lite", include_str!("../../../../worlds/suites/v1/reference-lite.json")),
+    ("v1", "full", include_str!("../../../../worlds/suites/v1/reference-full.json")),
+];
 
 /// The grid MDP's optimal policy as an agent (see the module's documentation).
 #[derive(Clone, Debug)]
@@ -251,7 +253,7 @@ mod tests {
     #[test]
     fn shipped_references_cover_their_tiers() {
         let s = Suite::builtin("v1").unwrap();
-        for tier in SHIPPED.iter().map(|s| s.1) {
+        for tier in super::super::TIERS {
             let r = shipped("v1", tier).expect("a shipped reference");
             assert!(is_reference(&r) && r.complete && r.tier == tier);
             assert_eq!(r.tasks.iter().map(|t| t.task.clone()).collect::<Vec<_>>(), s.task_names());
