@@ -4,7 +4,7 @@
 //! interquartile mean with stratified-bootstrap intervals, performance profiles and the
 //! probability of improvement over `mmq` (the methods of Agarwal et al., NeurIPS 2021;
 //! the numbers come from [`mmq_lab::suite::stats`]); and the reference, the grid-optimal
-//! policy on each task, with each agent's fraction of it ([`crate::reference`]).
+//! policy on each task, with each agent's fraction of it (the `reference` module).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};

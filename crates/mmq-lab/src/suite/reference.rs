@@ -1,5 +1,5 @@
 //! The suite's reference agent, `grid-optimal`: the world MDP's optimal policy (value
-//! iteration on the grid, [`mmq_core::optimum`]) executed on each task's environment,
+//! iteration on the grid, [`mmq_core::optimum()`]) executed on each task's environment,
 //! without learning. On the grid it earns the optimum (less its exploration); on a robot
 //! it earns what the grid's best plan is worth once primitives slip, take longer, or end
 //! in another cell than planned, so a learner's fraction of it separates the robot's own
