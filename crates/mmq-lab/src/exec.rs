@@ -15,10 +15,8 @@ use rayon::prelude::*;
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
-use crate::runner::{
-    Control, LearnerFactory, ObserverFactory, SeedResult, Trajectory, check_tables_fit, memory_limit,
-    run_seed, run_seed_as,
-};
+use crate::runner::{check_run, check_tables_fit, memory_limit, run_seed, run_seed_as};
+use crate::trajectory::{Control, LearnerFactory, ObserverFactory, SeedResult, Trajectory};
 
 /// One run to make: a configuration, its world and delay, a master seed and, for a
 /// learner not built from a name, how to build it.
@@ -256,6 +254,49 @@ pub fn run_jobs_in_order(
         Ok(())
     })?;
     Ok(slots.into_inner().unwrap_or_else(|p| p.into_inner()))
+}
+
+/// The result of many seeds.
+#[derive(Debug)]
+pub struct RunOutcome {
+    /// Results in seed order (only seeds that started).
+    pub results: Vec<SeedResult>,
+    /// Whether the run was stopped early (or a seed lost output).
+    pub interrupted: bool,
+}
+
+impl RunOutcome {
+    /// Why seeds lost output, one message per seed that did (see [`SeedResult::failure`]).
+    pub fn failures(&self) -> Vec<&str> {
+        self.results.iter().filter_map(|r| r.failure.as_deref()).collect()
+    }
+}
+
+/// Runs every seed of `cfg` in parallel (rayon), results in seed order.
+pub fn run_all(
+    cfg: &RunConfig,
+    world: &World,
+    observers: &ObserverFactory<'_>,
+    ctl: Control<'_>,
+) -> Result<RunOutcome, LabError> {
+    run_checked(cfg, world, &check_run(cfg, world)?, observers, ctl)
+}
+
+/// [`run_all`] of a configuration [`check_run`] passed, with the delay it parsed.
+pub(crate) fn run_checked(
+    cfg: &RunConfig,
+    world: &World,
+    dist: &DelayDist,
+    observers: &ObserverFactory<'_>,
+    ctl: Control<'_>,
+) -> Result<RunOutcome, LabError> {
+    let seeds = cfg.seed_list();
+    let jobs: Vec<Job<'_>> =
+        seeds.iter().map(|&seed| Job { cfg, world, dist, seed, learner: None }).collect();
+    let out: Vec<SeedResult> =
+        run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
+    let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
+    Ok(RunOutcome { results: out, interrupted })
 }
 
 #[cfg(test)]

@@ -23,8 +23,10 @@ pub mod stepper;
 pub mod suite;
 pub mod summary;
 pub mod sweep;
+pub mod trajectory;
 
 pub use config::{EnvKind, RunConfig};
 pub use error::LabError;
-pub use runner::{Control, SeedResult, run_all, run_seed};
+pub use exec::run_all;
+pub use runner::{Control, SeedResult, run_seed};
 pub use summary::Summary;

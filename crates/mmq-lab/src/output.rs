@@ -268,7 +268,7 @@ pub fn run_into(
     let _lock = crate::lock::lock_out_dir(dir)?;
     claimed(claim_out_dir(dir, OutKind::Run)?);
     write_config(dir, cfg)?;
-    let outcome = crate::runner::run_checked(cfg, world, &dist, observers, ctl)?;
+    let outcome = crate::exec::run_checked(cfg, world, &dist, observers, ctl)?;
     let lost = outcome.failures().into_iter().map(str::to_string).collect();
     let stopped = || ctl.stop.load(std::sync::atomic::Ordering::Relaxed);
     let (summary, _) = write_results(dir, cfg, world, &outcome.results, !outcome.interrupted, &stopped)?;

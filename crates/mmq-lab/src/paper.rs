@@ -195,7 +195,7 @@ pub const SPECS: &[(&str, &str)] = &[
     ("paper-fig6-robot", include_str!("../../../worlds/sweeps/paper-fig6-robot.toml")),
     ("paper-horizon", include_str!("../../../worlds/sweeps/paper-horizon.toml")),
     ("paper-sensitivity", include_str!("../../../worlds/sweeps/paper-sensitivity.toml")),
-    ("paper-comparison", crate::comparison::SPEC),
+    ("paper-comparison", include_str!("../../../worlds/sweeps/paper-comparison.toml")),
 ];
 
 /// The settings of the figure spec `name` at the budget of `o`: one configuration per

@@ -18,7 +18,7 @@ use mmq_learn::{Decision, Diagnostics, Experience, Learner, Truth};
 
 use crate::config::RunConfig;
 use crate::error::LabError;
-use crate::runner::{CHECK_EVERY, Control, CurveRow, DIAGNOSTICS_EVERY, DiagnosticsSample, Trajectory};
+use crate::trajectory::{CHECK_EVERY, Control, CurveRow, DIAGNOSTICS_EVERY, DiagnosticsSample, Trajectory};
 
 /// A learning trajectory under way: the environment behind its delay channel, the
 /// exploration stream, the metrics so far and the observer's bookkeeping.

@@ -1,5 +1,6 @@
-//! No module-level import cycle in mmq-learn: the modules of `src/` and what each uses of
-//! its siblings, read from the source, must form a graph without a cycle.
+//! No module-level import cycle in mmq-learn or mmq-lab: the modules of each crate's
+//! `src/` and what each uses of its siblings, read from the source, must form a graph
+//! without a cycle.
 //!
 //! A module is a top-level file of `src/` (`mmq.rs` is `mmq`) or a folder module with
 //! everything inside it (`deconv/mod.rs`, `deconv/gram.rs`, ... are all `deconv`). Its
@@ -340,7 +341,23 @@ pub fn assert_no_import_cycle(src: &Path) -> Graph {
 }
 
 fn learn_src() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/mmq-learn/src")
+}
+
+fn lab_src() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/mmq-lab/src")
+}
+
+#[test]
+fn mmq_lab_has_no_module_import_cycle() {
+    let g = assert_no_import_cycle(&lab_src());
+    // The reader sees real code: the runner drives the step loop, the executor the
+    // runner, and the step loop and executor share the trajectory types.
+    for (m, d) in
+        [("runner", "stepper"), ("exec", "runner"), ("stepper", "trajectory"), ("comparison", "paper")]
+    {
+        assert!(g[m].contains(d), "{m} should use {d}: {:?}", g[m]);
+    }
 }
 
 #[test]
@@ -358,8 +375,14 @@ fn mmq_learn_has_no_module_import_cycle() {
 /// `lib.rs` only declares modules and re-exports: after its attributes and visibility,
 /// every item is a `mod …;` or a `use …;`.
 #[test]
-fn mmq_learn_root_only_declares_and_reexports() {
-    let lib = code_only(&fs::read_to_string(learn_src().join("lib.rs")).unwrap());
+fn the_roots_only_declare_and_reexport() {
+    for src in [learn_src(), lab_src()] {
+        root_only_declares_and_reexports(&src);
+    }
+}
+
+fn root_only_declares_and_reexports(src: &Path) {
+    let lib = code_only(&fs::read_to_string(src.join("lib.rs")).unwrap());
     for item in lib.split(';').map(str::trim).filter(|i| !i.is_empty()) {
         let mut rest = item;
         while let Some(attr) = rest.strip_prefix("#[") {
@@ -373,7 +396,8 @@ fn mmq_learn_root_only_declares_and_reexports() {
         }
         assert!(
             rest.starts_with("mod ") || rest.starts_with("use "),
-            "lib.rs should only declare modules and re-export, found: {item}"
+            "{}/lib.rs should only declare modules and re-export, found: {item}",
+            src.display()
         );
     }
 }
