@@ -15,7 +15,9 @@ from gymnasium.vector import AutoresetMode
 import mmq  # noqa: F401  (registers the environments)
 
 N = 4
-STEPS = 10_000
+# Steps per case: several episodes each (the grid's episodes are 1,000 steps, the
+# robot's 200), so that truncations and autoresets are compared many times over.
+STEPS = {"mmq/Grid-v0": 5_000, "mmq/Robot-v0": 2_500}
 CASES = [
     ("mmq/Grid-v0", "none"),
     ("mmq/Grid-v0", "poisson:13"),
@@ -41,7 +43,8 @@ def test_gymnasium_vector_modes_equal_the_package_vector(env_id, delay):
         seeds = resets[1][1]["seed"]
         assert seeds.dtype == np.uint64 and [int(s) for s in seeds] == [42 + i for i in range(N)]
 
-        actions = np.random.default_rng(5).integers(0, 4, size=(STEPS, N))
+        steps = STEPS[env_id]
+        actions = np.random.default_rng(5).integers(0, 4, size=(steps, N))
         truncations, delivered, delayed, autoresets = 0, 0.0, 0, 0
         for a in actions:
             (o0, r0, te0, tr0, i0), *gyms = [v.step(a) for v in venvs]
@@ -68,8 +71,8 @@ def test_gymnasium_vector_modes_equal_the_package_vector(env_id, delay):
             truncations += int(tr0.sum())
             delivered += float(np.abs(r0).sum())
         limit = own.max_episode_steps
-        assert truncations == N * ((STEPS + 1) // (limit + 1)) > 0
-        assert autoresets == N * (STEPS // (limit + 1)) > 0
+        assert truncations == N * ((steps + 1) // (limit + 1)) > 0
+        assert autoresets == N * (steps // (limit + 1)) > 0
         assert delivered > 0
         assert (delayed > 0) == (delay != "none")
     finally:
