@@ -23,6 +23,26 @@ pub struct SuiteArgs {
     action: SuiteAction,
 }
 
+/// Where a tier runs: shared by `suite run` and `suite reference`.
+#[derive(Debug, Args)]
+struct TierRun {
+    /// The tier: lite (minutes) or full (the paper's budget).
+    #[arg(long)]
+    tier: String,
+    /// The suite: a shipped version (v1) or a suite file (TOML, as worlds/suites/v1/suite.toml).
+    #[arg(long, default_value = "v1")]
+    suite: String,
+    /// Output directory; finished seeds there are skipped (resume).
+    #[arg(long, short)]
+    out: PathBuf,
+    /// Run only the K-th of N disjoint parts of the seeds (1 <= K <= N), e.g. 2/8.
+    #[arg(long, value_name = "K/N")]
+    shard: Option<String>,
+    /// No progress bar and no line per finished seed.
+    #[arg(long, short)]
+    quiet: bool,
+}
+
 #[derive(Debug, Subcommand)]
 enum SuiteAction {
     /// Run a built-in learner on every task of a tier (resumable; --shard for a cluster)
@@ -34,40 +54,14 @@ enum SuiteAction {
         /// A setting of the learner, KEY=VALUE (repeatable), as for `mmq run`.
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
-        /// The tier: lite (minutes) or full (the paper's budget).
-        #[arg(long)]
-        tier: String,
-        /// The suite: a shipped version (v1) or a suite file (TOML, as worlds/suites/v1/suite.toml).
-        #[arg(long, default_value = "v1")]
-        suite: String,
-        /// Output directory; finished seeds there are skipped (resume).
-        #[arg(long, short)]
-        out: PathBuf,
-        /// Run only the K-th of N disjoint parts of the seeds (1 <= K <= N), e.g. 2/8.
-        #[arg(long, value_name = "K/N")]
-        shard: Option<String>,
-        /// No progress bar and no line per finished seed.
-        #[arg(long, short)]
-        quiet: bool,
+        #[command(flatten)]
+        at: TierRun,
     },
     /// Run the reference, the grid MDP's optimal policy (`grid-optimal`), on every task of
     /// a tier and write OUT/results.json; `suite report` shows each agent's fraction of it.
     Reference {
-        /// The tier: lite or full.
-        #[arg(long)]
-        tier: String,
-        /// The suite: a shipped version (v1) or a suite file.
-        #[arg(long, default_value = "v1")]
-        suite: String,
-        /// Output directory; finished seeds there are skipped (resume).
-        #[arg(long, short)]
-        out: PathBuf,
-        /// Run only the K-th of N disjoint parts of the seeds (1 <= K <= N), e.g. 2/8.
-        #[arg(long, value_name = "K/N")]
-        shard: Option<String>,
-        /// No progress bar and no line per finished seed.
-        #[arg(long, short)]
-        quiet: bool,
+        #[command(flatten)]
+        at: TierRun,
     },
     /// Merge the output directories of shards of one agent and tier into --out and write
     /// its results.json.
@@ -95,25 +89,25 @@ enum SuiteAction {
 /// Runs `mmq suite`.
 pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
     match a.action {
-        SuiteAction::Run { learner, set, tier, suite, out, shard, quiet } => {
+        SuiteAction::Run { learner, set, at } => {
             let settings = set.iter().map(|kv| crate::run::setting(kv)).collect::<Result<Vec<_>, _>>()?;
             let agent =
                 Agent { learner, settings: settings.into_iter().map(|(k, v)| (k.to_string(), v)).collect() };
-            let suite = Suite::open(&suite)?;
-            let spec = suite.spec(&tier, &agent)?;
+            let suite = Suite::open(&at.suite)?;
+            let spec = suite.spec(&at.tier, &agent)?;
             let run = SuiteRun {
                 suite: suite.version.clone(),
-                tier: tier.clone(),
+                tier: at.tier.clone(),
                 agent: agent.name(),
                 tasks: suite.task_names(),
                 subset: false,
             };
-            go(&spec, &run, None, &out, shard.as_deref(), quiet, stop)
+            go(&spec, &run, None, &at, stop)
         }
-        SuiteAction::Reference { tier, suite, out, shard, quiet } => {
-            let (spec, run) = Suite::open(&suite)?.reference_spec(&tier)?;
+        SuiteAction::Reference { at } => {
+            let (spec, run) = Suite::open(&at.suite)?.reference_spec(&at.tier)?;
             let learners = reference::learners(&spec);
-            go(&spec, &run, Some(&learners), &out, shard.as_deref(), quiet, stop)
+            go(&spec, &run, Some(&learners), &at, stop)
         }
         SuiteAction::Merge { dirs, out } => {
             let (merged, results) = SuiteRun::merge_dirs(&dirs, &out)?;
@@ -144,12 +138,11 @@ fn go(
     spec: &SweepSpec,
     run: &SuiteRun,
     learners: Option<&CellLearners<'_>>,
-    out: &std::path::Path,
-    shard: Option<&str>,
-    quiet: bool,
+    at: &TierRun,
     stop: &AtomicBool,
 ) -> Result<(), Failure> {
-    let shard = shard.map(Shard::parse).transpose()?;
+    let (out, quiet) = (at.out.as_path(), at.quiet);
+    let shard = at.shard.as_deref().map(Shard::parse).transpose()?;
     run.claim(out)?;
     let clock = Instant::now();
     let pb = Bars::new(quiet);
