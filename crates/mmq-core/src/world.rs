@@ -133,6 +133,7 @@ struct WorldFile {
     #[serde(default)]
     rewards: Rewards,
     robot: Option<toml::Table>,
+    swarm: Option<toml::Table>,
 }
 
 fn default_cell_size() -> f64 {
@@ -191,6 +192,8 @@ pub struct World {
     pub start: StartRule,
     /// The raw `[robot]` table, validated by the robot environment.
     pub robot: Option<toml::Table>,
+    /// The raw `[swarm]` table, validated by the swarm environment.
+    pub swarm: Option<toml::Table>,
     /// The file the world came from, if any.
     pub path: Option<PathBuf>,
     /// The file's text (kept so logs can attach it).
@@ -361,6 +364,7 @@ impl World {
             step_period_s: raw.step_period_s,
             start: raw.start,
             robot: raw.robot,
+            swarm: raw.swarm,
             path: None,
             source: text.to_string(),
         };

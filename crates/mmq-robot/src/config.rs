@@ -44,6 +44,18 @@ pub enum RobotError {
         /// The fields accepted at that level.
         known: String,
     },
+    /// A field of the `[swarm]` table (or a `--swarm` override) that is not accepted.
+    #[error("swarm config: field `{field}` = {value} is not accepted: {problem}; use {accepted}")]
+    Swarm {
+        /// The field, as written in the `[swarm]` table.
+        field: &'static str,
+        /// The value given.
+        value: String,
+        /// What is wrong with it.
+        problem: String,
+        /// What would be accepted.
+        accepted: String,
+    },
     /// A `KEY=VALUE` override whose value does not fit the field, or text without `=`.
     #[error("robot override `{text}`: {problem}; use {accepted}")]
     BadValue {

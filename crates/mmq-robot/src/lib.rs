@@ -31,12 +31,14 @@ mod primitive;
 pub mod profile;
 mod realistic;
 mod robot;
+pub mod swarm;
 
 pub use arena::{Wall, walls};
 pub use config::{ActionSet, DEFAULT_DT_S, NoiseConfig, Preset, RobotConfig, RobotError, RobotTable};
 pub use env::RobotEnv;
 pub use overrides::apply_overrides;
 pub use profile::{Profile, RealisticConfig, RealisticTable};
+pub use swarm::{SwarmConfig, SwarmEnv, SwarmStep};
 
 /// The rapier2d version this crate was built against.
 pub const RAPIER_VERSION: &str = rapier2d::VERSION;

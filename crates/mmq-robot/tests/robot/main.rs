@@ -5,6 +5,7 @@ mod determinism;
 mod heading;
 mod motion;
 mod realistic;
+mod swarm;
 mod trace;
 
 use mmq_core::World;
