@@ -93,6 +93,8 @@ pub enum EnvArg {
     Grid,
     /// The rapier2d differential-drive robot.
     Robot,
+    /// Several robots in one arena; rewards wait for a radio consultation (`--swarm`).
+    Swarm,
 }
 
 /// Flags of `mmq run`.
@@ -110,9 +112,9 @@ pub struct RunArgs {
     /// Reward delay. In steps: none, const:K, poisson:L, geometric:P, uniform:LO:HI,
     /// hist:W0,W1,..., mix:P1*SPEC1+P2*SPEC2. In seconds of simulated time: const:2s,
     /// uniform:0s:20s, exponential:4s, lognormal:MEDIANs:SIGMA, hist@0.5s:W0,W1,..., wifi,
-    /// mix of those.
-    #[arg(long, default_value = "poisson:13")]
-    pub delay: String,
+    /// mix of those. Default: poisson:13, or none for the swarm (its delays emerge).
+    #[arg(long)]
+    pub delay: Option<String>,
     /// Width of deconv-model-time's time bins, seconds (default 0.1); for that learner only.
     #[arg(long)]
     pub time_bin: Option<f64>,
@@ -179,6 +181,10 @@ pub struct RunArgs {
     /// --robot preset=kobuki --robot realistic.fix_rate_hz=2 (repeatable; see docs/robot.md).
     #[arg(long = "robot", value_name = "KEY=VALUE")]
     pub robot: Vec<String>,
+    /// Override a field of the world's [swarm] table, e.g. --swarm robots=8 --swarm
+    /// consult=peers --swarm k=2 (repeatable; with --env swarm; see docs/swarm.md).
+    #[arg(long = "swarm", value_name = "KEY=VALUE")]
+    pub swarm: Vec<String>,
     /// Serve the first seed live to the Foxglove app (WebSocket) on ADDR: HOST:PORT or a
     /// port; default 127.0.0.1:8765, loopback only unless another address is named.
     #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = "127.0.0.1:8765")]

@@ -36,9 +36,12 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         env: match a.env {
             EnvArg::Grid => EnvKind::Grid,
             EnvArg::Robot => EnvKind::Robot,
+            EnvArg::Swarm => EnvKind::Swarm,
         },
         learner,
-        delay: a.delay.clone(),
+        delay: a.delay.clone().unwrap_or_else(|| {
+            if matches!(a.env, EnvArg::Swarm) { "none" } else { "poisson:13" }.to_string()
+        }),
         steps: a.steps,
         seed: a.seed,
         seeds: a.seeds,
@@ -53,6 +56,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
             last: a.record_last,
         }),
         robot: a.robot.clone(),
+        swarm: a.swarm.clone(),
     };
     cfg.validate()?;
     Ok(cfg)
@@ -69,6 +73,11 @@ pub(crate) fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
 /// Runs `mmq run`.
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
+    if cfg.env == EnvKind::Swarm && a.live.is_some() {
+        return Err(crate::input_error(
+            "--live: the live view shows one robot; run the swarm without it".to_string(),
+        ));
+    }
     let world = cfg.load_world()?;
     // Before anything is written: a bad address or a port in use stops here.
     let live = crate::live::start(&a, &cfg)?;

@@ -119,6 +119,11 @@ pub fn run_batch(
     match cfg.env {
         EnvKind::Grid => run_batch_on(cfg, dist, seeds, factory, ctl, mem_limit, &|| Ok(GridEnv::new(world))),
         EnvKind::Robot => run_batch_on(cfg, dist, seeds, factory, ctl, mem_limit, &|| robot_env(world)),
+        EnvKind::Swarm => Err(LabError::param(
+            "env",
+            "swarm",
+            "batched agents run on the grid and the single robot; give the swarm an agent without act_batch",
+        )),
     }
 }
 

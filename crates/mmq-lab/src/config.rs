@@ -17,6 +17,8 @@ pub enum EnvKind {
     Grid,
     /// The rapier2d differential-drive robot in the same world.
     Robot,
+    /// Several robots in one arena whose rewards wait for a radio consultation.
+    Swarm,
 }
 
 impl EnvKind {
@@ -25,6 +27,7 @@ impl EnvKind {
         match self {
             EnvKind::Grid => "grid",
             EnvKind::Robot => "robot",
+            EnvKind::Swarm => "swarm",
         }
     }
 }
@@ -67,6 +70,11 @@ pub struct RunConfig {
     /// ignores them once they are checked.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub robot: Vec<String>,
+    /// `KEY=VALUE` overrides of the world's `[swarm]` table (`--swarm`), checked when the
+    /// world is loaded (see `mmq_robot::swarm::apply_swarm_overrides`); only the swarm
+    /// reads them.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub swarm: Vec<String>,
 }
 
 /// What `--record` writes.
@@ -106,6 +114,7 @@ impl Default for RunConfig {
             ledger: false,
             record: None,
             robot: Vec::new(),
+            swarm: Vec::new(),
         }
     }
 }
@@ -144,6 +153,27 @@ impl RunConfig {
             return Err(LabError::param("eval_steps", self.eval_steps, "use at most 10^10 steps"));
         }
         self.learner.validate()?;
+        if self.env == EnvKind::Swarm && self.delay.trim() != "none" {
+            return Err(LabError::param(
+                "delay",
+                &self.delay,
+                "the swarm's delays emerge from its consultation (`swarm.consult`); use delay none",
+            ));
+        }
+        if self.env == EnvKind::Swarm && self.record.is_some() {
+            return Err(LabError::param(
+                "record",
+                "on",
+                "recordings and the live view show one robot; run the swarm without them",
+            ));
+        }
+        if self.env != EnvKind::Swarm && !self.swarm.is_empty() {
+            return Err(LabError::param(
+                "swarm",
+                self.swarm.join(" "),
+                "only the swarm reads them; use env swarm",
+            ));
+        }
         if let Some(r) = &self.record
             && !(r.pose_rate_hz.is_finite() && r.pose_rate_hz >= 0.0 && r.pose_rate_hz <= 10_000.0)
         {
@@ -161,6 +191,22 @@ impl RunConfig {
         LearnerSpec { params: self.learner.params, ..LearnerSpec::new(LearnerKind::Q) }
     }
 
+    /// The undelayed Q-learning run that is this run's baseline, as a run of its own (on
+    /// the swarm: without consultation).
+    pub fn baseline_run(&self) -> RunConfig {
+        let mut swarm = self.swarm.clone();
+        if self.env == EnvKind::Swarm {
+            swarm.push("consult=none".into());
+        }
+        RunConfig {
+            learner: self.baseline_learner(),
+            delay: "none".into(),
+            baseline: false,
+            swarm,
+            ..self.clone()
+        }
+    }
+
     /// Loads the world file.
     pub fn load_world(&self) -> Result<World, LabError> {
         let mut world = World::load(&self.world)?;
@@ -168,6 +214,11 @@ impl RunConfig {
             let table = mmq_robot::apply_overrides(world.robot.as_ref(), &self.robot)
                 .map_err(|e| LabError::EnvBuild(format!("`robot`: {e}")))?;
             world.robot = Some(table);
+        }
+        if !self.swarm.is_empty() {
+            let table = mmq_robot::swarm::apply_swarm_overrides(world.swarm.as_ref(), &self.swarm)
+                .map_err(|e| LabError::EnvBuild(format!("`swarm`: {e}")))?;
+            world.swarm = Some(table);
         }
         Ok(world)
     }

@@ -53,6 +53,7 @@ pub struct BaselineKey {
     world: PathBuf,
     env: EnvKind,
     robot: Vec<String>,
+    swarm: Vec<String>,
     /// α, γ, ε, q0 as bits.
     params: [u64; 4],
     steps: u64,
@@ -69,6 +70,7 @@ impl BaselineKey {
             world: cfg.world.clone(),
             env: cfg.env,
             robot: cfg.robot.clone(),
+            swarm: cfg.swarm.clone(),
             params: [p.alpha.to_bits(), p.gamma.to_bits(), p.epsilon.to_bits(), p.q0.to_bits()],
             steps: cfg.steps,
             window: cfg.window,
@@ -80,7 +82,7 @@ impl BaselineKey {
 
 /// The undelayed Q-learning run that is `cfg`'s baseline, as a run of its own.
 pub fn baseline_config(cfg: &RunConfig) -> RunConfig {
-    RunConfig { learner: cfg.baseline_learner(), delay: "none".into(), baseline: false, ..cfg.clone() }
+    cfg.baseline_run()
 }
 
 /// The distinct baselines the jobs need (each job whose configuration asks for one).

@@ -22,6 +22,7 @@ pub mod settings;
 pub mod stepper;
 pub mod suite;
 pub mod summary;
+pub mod swarm;
 pub mod sweep;
 pub mod trajectory;
 

@@ -47,9 +47,9 @@ impl PaperOptions {
     pub fn new(quick: bool, env: EnvKind) -> Self {
         let (seeds, steps, window) = match (quick, env) {
             (false, EnvKind::Grid) => (20, 150_000, 2500),
-            (false, EnvKind::Robot) => (5, 150_000, 2500),
+            (false, EnvKind::Robot | EnvKind::Swarm) => (5, 150_000, 2500),
             (true, EnvKind::Grid) => (6, 30_000, 1000),
-            (true, EnvKind::Robot) => (2, 3000, 100),
+            (true, EnvKind::Robot | EnvKind::Swarm) => (2, 3000, 100),
         };
         Self { seeds, steps, seed: 0, env, worlds: PathBuf::from("worlds"), window, specs: None }
     }

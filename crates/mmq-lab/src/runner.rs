@@ -7,13 +7,13 @@ use std::time::Instant;
 
 use mmq_core::{DelayDist, Env, Move, Observer, Optimum, SeedTree, Telemetry, World};
 use mmq_grid::GridEnv;
-use mmq_learn::policy::probabilistic;
 use mmq_learn::{Learner, LearnerSpec};
 use mmq_robot::{RobotConfig, RobotEnv};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 use crate::stepper::{Evaluation, Stepper};
+use crate::trajectory::policy_of;
 pub use crate::trajectory::{
     Control, CurveRow, DIAGNOSTICS_EVERY, DiagnosticsSample, LearnerFactory, ObserverFactory, SeedResult,
     Trajectory,
@@ -29,7 +29,7 @@ pub fn run_facts(cfg: &RunConfig, world: &World) -> Vec<(String, String)> {
     ];
     match cfg.env {
         EnvKind::Grid => f.push(("grid_step_period_s".to_string(), world.step_period_s.to_string())),
-        EnvKind::Robot => match robot_env(world) {
+        EnvKind::Robot | EnvKind::Swarm => match robot_env(world) {
             Ok(env) => {
                 f.extend(env.features());
                 f.push(("robot.radius_m".into(), env.config().radius_m.to_string()));
@@ -56,12 +56,12 @@ pub fn check_world(path: &std::path::Path) -> Result<World, LabError> {
 }
 
 /// The robot's configuration from `world`'s `[robot]` table; errors name the world file.
-fn robot_config(world: &World) -> Result<RobotConfig, LabError> {
+pub(crate) fn robot_config(world: &World) -> Result<RobotConfig, LabError> {
     RobotConfig::from_world(world).map_err(|e| env_build(world, e))
 }
 
 /// An environment that cannot be built from `world`, naming its file.
-fn env_build(world: &World, e: impl std::fmt::Display) -> LabError {
+pub(crate) fn env_build(world: &World, e: impl std::fmt::Display) -> LabError {
     let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
     LabError::EnvBuild(format!("{file}: {e}"))
 }
@@ -71,7 +71,7 @@ fn env_build(world: &World, e: impl std::fmt::Display) -> LabError {
 pub fn table_shape(cfg: &RunConfig, world: &World) -> Result<(usize, usize), LabError> {
     match cfg.env {
         EnvKind::Grid => Ok((world.num_cells(), Move::ALL.len())),
-        EnvKind::Robot => Ok(robot_config(world)?.actions.table_shape(world.num_cells())),
+        EnvKind::Robot | EnvKind::Swarm => Ok(robot_config(world)?.actions.table_shape(world.num_cells())),
     }
 }
 
@@ -130,6 +130,16 @@ pub(crate) fn run_seed_as(
             run_seed_on(cfg, world, dist, seed, observer, ctl, mem_limit, own_baseline, learner, || {
                 robot_env(world)
             })
+        }
+        EnvKind::Swarm => {
+            if observer.is_some() {
+                return Err(LabError::param(
+                    "record",
+                    "on",
+                    "recordings and the live view show one robot; run the swarm without them",
+                ));
+            }
+            crate::swarm::run_swarm_seed(cfg, world, seed, ctl, mem_limit, own_baseline, learner)
         }
     }
 }
@@ -299,37 +309,6 @@ pub fn evaluate<E: Env + Telemetry>(
     Ok(ev.finish())
 }
 
-/// Deterministic (bit set of maximisers) and probabilistic policies per state, and
-/// whether every state was visited (`stop()` is asked every 1,024 states; states after a
-/// stop keep no arrow and a NaN value).
-type Policy = (Vec<u8>, Vec<Vec<f64>>, Vec<f64>, bool);
-fn policy_of<E: Env>(env: &E, learner: &dyn Learner, stop: &dyn Fn() -> bool) -> Policy {
-    let n = env.num_states();
-    let na = env.num_actions();
-    let mut arrows = vec![0u8; n];
-    let mut probs = vec![vec![0.0; na]; n];
-    let mut values = vec![f64::NAN; n];
-    let mut buf = vec![0.0; na];
-    for s in 0..n {
-        if s % 1024 == 0 && stop() {
-            return (arrows, probs, values, false);
-        }
-        if !env.world().is_free(env.state_cell(s)) {
-            continue;
-        }
-        learner.action_values(s, &mut buf);
-        let m = buf.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        values[s] = m;
-        for (a, &q) in buf.iter().enumerate().take(8) {
-            if q == m {
-                arrows[s] |= 1 << a;
-            }
-        }
-        probs[s] = probabilistic(&buf);
-    }
-    (arrows, probs, values, true)
-}
-
 /// Memory available for tables: MemAvailable from /proc/meminfo (or 8 GiB), shared by
 /// `parallel` seeds running at once.
 pub fn memory_limit(parallel: usize) -> u128 {
@@ -352,8 +331,14 @@ pub fn memory_limit(parallel: usize) -> u128 {
 /// tables need. Callers that write outputs check it before touching the output folder.
 pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> {
     let dist = cfg.validate()?;
-    if cfg.env == EnvKind::Robot {
-        robot_env(world)?;
+    match cfg.env {
+        EnvKind::Grid => {}
+        EnvKind::Robot => {
+            robot_env(world)?;
+        }
+        EnvKind::Swarm => {
+            crate::swarm::swarm_env_with(world, &cfg.swarm)?;
+        }
     }
     let seeds = cfg.seed_list();
     let parallel = rayon::current_num_threads().min(seeds.len());

@@ -73,7 +73,7 @@ pub fn ceiling_per_step_until(
 ) -> Option<Option<f64>> {
     let moves = match cfg.env {
         crate::config::EnvKind::Grid => true,
-        crate::config::EnvKind::Robot => {
+        crate::config::EnvKind::Robot | crate::config::EnvKind::Swarm => {
             mmq_robot::RobotConfig::from_world(world).is_ok_and(|c| c.actions == mmq_robot::ActionSet::Moves)
         }
     };

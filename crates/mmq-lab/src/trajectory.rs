@@ -6,7 +6,8 @@
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use mmq_core::Observer;
+use mmq_core::{Env, Observer};
+use mmq_learn::policy::probabilistic;
 use mmq_learn::{Diagnostics, Learner, Table};
 use serde::{Deserialize, Serialize};
 
@@ -144,4 +145,35 @@ impl SeedResult {
     pub fn earned_per_step(&self) -> f64 {
         self.run.earned_total / self.run.steps_done.max(1) as f64
     }
+}
+
+/// Deterministic (bit set of maximisers) and probabilistic policies per state, and
+/// whether every state was visited (`stop()` is asked every 1,024 states; states after a
+/// stop keep no arrow and a NaN value).
+pub(crate) type Policy = (Vec<u8>, Vec<Vec<f64>>, Vec<f64>, bool);
+pub(crate) fn policy_of<E: Env>(env: &E, learner: &dyn Learner, stop: &dyn Fn() -> bool) -> Policy {
+    let n = env.num_states();
+    let na = env.num_actions();
+    let mut arrows = vec![0u8; n];
+    let mut probs = vec![vec![0.0; na]; n];
+    let mut values = vec![f64::NAN; n];
+    let mut buf = vec![0.0; na];
+    for s in 0..n {
+        if s % 1024 == 0 && stop() {
+            return (arrows, probs, values, false);
+        }
+        if !env.world().is_free(env.state_cell(s)) {
+            continue;
+        }
+        learner.action_values(s, &mut buf);
+        let m = buf.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        values[s] = m;
+        for (a, &q) in buf.iter().enumerate().take(8) {
+            if q == m {
+                arrows[s] |= 1 << a;
+            }
+        }
+        probs[s] = probabilistic(&buf);
+    }
+    (arrows, probs, values, true)
 }

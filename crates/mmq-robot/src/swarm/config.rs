@@ -7,7 +7,7 @@
 //! starts = "random"          # or [[row, col], ...], 1-based, one per robot
 //! bump_penalty = -1.0        # reward for bumping into another robot (default: the wall's)
 //! consult = "peers"          # none | peers | server
-//! k = 2                      # peers: replies needed
+//! k = 2                      # peers: replies needed (the other models ignore it)
 //! radio_range_m = 1.5        # radio range, metres
 //! hop_delay = "wifi"         # one hop's latency: any delay spec in seconds
 //! loss = 0.05                # probability that one hop's attempt is lost (it is retried)
@@ -211,14 +211,6 @@ impl SwarmConfig {
                 loss,
                 "a loss probability is at least 0 and below 0.99",
                 "loss = 0 … 0.98",
-            ));
-        }
-        if raw.k.is_some() && !matches!(consult, Consult::Peers { .. }) {
-            return Err(bad(
-                "k",
-                raw.k.unwrap_or(0),
-                "only the peers model reads it",
-                "consult = \"peers\", or no k",
             ));
         }
         Ok(SwarmConfig { robots, starts, bump_penalty, consult, radio_range_m, hop_delay, loss })

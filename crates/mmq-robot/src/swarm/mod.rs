@@ -6,7 +6,9 @@
 //! caller gives every waiting robot an action ([`SwarmEnv::act`]) and then
 //! [`SwarmEnv::advance`]s the shared physics until at least one primitive ends; the
 //! steps that ended are reported in robot order. A robot that bumps into another robot
-//! backs off as it does from a wall and earns the swarm's `bump_penalty`.
+//! backs off as it does from a wall and earns the swarm's `bump_penalty`. A robot
+//! teleported from the goal lands in the respawn cell, or, when another robot is within
+//! a cell of it, in the nearest cell clear of every robot.
 //!
 //! With one robot and `consult = "none"` the swarm is the single robot bit for bit: the
 //! same rapier world, the same streams, the same physics steps (a test holds this).
@@ -159,14 +161,31 @@ impl SwarmEnv {
     /// `seed` seeds the robots' streams ([`robot_seed`]), `net_seed` the radio's.
     /// Returns every robot's state.
     pub fn reset(&mut self, seed: u64, net_seed: u64) -> Result<Vec<State>, EnvError> {
+        self.reset_inner(seed, net_seed, None)
+    }
+
+    /// [`SwarmEnv::reset`] with robot 0 put at `first` (`Start::Respawn`: the single
+    /// robot's greedy evaluation); a later robot whose start is taken moves on to the next
+    /// free cell.
+    pub fn reset_from(&mut self, seed: u64, net_seed: u64, first: Start) -> Result<Vec<State>, EnvError> {
+        self.reset_inner(seed, net_seed, Some(first))
+    }
+
+    fn reset_inner(
+        &mut self,
+        seed: u64,
+        net_seed: u64,
+        first: Option<Start>,
+    ) -> Result<Vec<State>, EnvError> {
         let mut taken: Vec<usize> = Vec::with_capacity(self.members.len());
         let mut poses = Vec::with_capacity(self.members.len());
         let heading_states = self.num_states() > self.world.num_cells();
         for (i, m) in self.members.iter_mut().enumerate() {
             let s = robot_seed(seed, i);
-            let start = match &self.swarm.starts {
-                Starts::Cells(cells) => Start::State(cells[i] * if heading_states { 4 } else { 1 }),
-                Starts::Random => Start::World,
+            let start = match (&self.swarm.starts, first) {
+                (_, Some(f)) if i == 0 => f,
+                (Starts::Cells(cells), _) => Start::State(cells[i] * if heading_states { 4 } else { 1 }),
+                (Starts::Random, _) => Start::World,
             };
             let mut pose = m.core.reset(s, start)?;
             let cell = self.world.cell_at(pose.0, pose.1).unwrap_or(self.world.respawn);
@@ -219,7 +238,50 @@ impl SwarmEnv {
             Begin::Done(e) => Doing::Ended(e),
             Begin::Run(prim) => Doing::Running(prim),
         };
+        if m.doing == Doing::Ended(Event::Teleport) {
+            self.clear_landing(robot);
+        }
         Ok(())
+    }
+
+    /// After robot `robot`'s goal teleport to the respawn cell: if another robot is
+    /// within a cell of it, the robot lands instead at the free, non-goal cell nearest
+    /// the respawn cell (then the lowest index) that is at least a cell away from every
+    /// other robot. With one robot nothing moves.
+    fn clear_landing(&mut self, robot: usize) {
+        let cs = self.world.cell_size;
+        let others: Vec<(f64, f64)> = (self.members.iter().enumerate())
+            .filter(|&(j, _)| j != robot)
+            .map(|(_, m)| {
+                let (x, y, _) = raw_pose(&self.phys.bodies[m.body]);
+                (x, y)
+            })
+            .collect();
+        let clear = |(x, y): (f64, f64)| others.iter().all(|&(ox, oy)| libm::hypot(ox - x, oy - y) >= cs);
+        let w = &self.world;
+        let home = w.cell_center(w.respawn);
+        if clear(home) {
+            return;
+        }
+        let dist = |c: usize| {
+            let (x, y) = w.cell_center(c);
+            libm::hypot(x - home.0, y - home.1)
+        };
+        let mut cells: Vec<usize> =
+            w.free_cells().filter(|&c| c != w.goal && clear(w.cell_center(c))).collect();
+        cells.sort_by(|&a, &b| dist(a).total_cmp(&dist(b)).then(a.cmp(&b)));
+        let Some(&cell) = cells.first() else { return };
+        let (x, y) = w.cell_center(cell);
+        let m = &mut self.members[robot];
+        let rb = &mut self.phys.bodies[m.body];
+        let mut pose = *rb.position();
+        pose.translation =
+            rapier2d::prelude::Vector::new(x as rapier2d::prelude::Real, y as rapier2d::prelude::Real);
+        rb.set_position(pose, true);
+        let p = raw_pose(rb);
+        if let Some(real) = &mut m.core.real {
+            real.relocalise(p);
+        }
     }
 
     /// Parks robot `robot`: it takes no more actions and stands still (its budget is

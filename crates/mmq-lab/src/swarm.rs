@@ -1,0 +1,426 @@
+//! One seed of the swarm: every robot learns with a learner of its own (independent
+//! learners), acting whenever its primitive ends; its reward reaches it when the swarm's
+//! consultation completes. Then a greedy evaluation of every robot at once, and the
+//! seed's result.
+//!
+//! The seed's trajectory is the swarm's: rewards and the learning curve are the mean
+//! over robots (so fractions of the optimum read as the single robot's), while counts
+//! (events, visits, delivered delays) are the swarm's totals. Each robot's own figures
+//! and the delays that emerged are in the environment figures under `swarm/`.
+//!
+//! Streams: robot 0 uses the seed's own streams, so one robot without consultation is
+//! the single robot's run bit for bit; robot `i` uses those of
+//! [`mmq_robot::swarm::robot_seed`]`(seed, i)`. The radio draws from the seed's delay
+//! stream.
+
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use mmq_core::channel::DelayStats;
+use mmq_core::{Action, Event, Rng, SeedTree, Start, State, Stream, World};
+use mmq_learn::{Experience, Learner, Truth};
+use mmq_robot::swarm::{RobotDelays, SwarmConfig, SwarmEnv, SwarmStep, robot_seed};
+use mmq_robot::{RobotConfig, RobotEnv};
+
+use crate::config::RunConfig;
+use crate::error::LabError;
+use crate::trajectory::{Control, CurveRow, LearnerFactory, SeedResult, Trajectory, policy_of};
+
+/// The swarm of `world` (its `[robot]` and `[swarm]` tables) with `overrides` of its
+/// `[swarm]` table applied.
+pub fn swarm_env_with(world: &World, overrides: &[String]) -> Result<SwarmEnv, LabError> {
+    let file = world.path.as_ref().map_or_else(|| world.name.clone(), |p| p.display().to_string());
+    let build = |e: mmq_robot::RobotError| LabError::EnvBuild(format!("{file}: {e}"));
+    let cfg = RobotConfig::from_world(world).map_err(build)?;
+    let swarm = SwarmConfig::from_world(world, overrides).map_err(build)?;
+    SwarmEnv::new(world, cfg, swarm).map_err(build)
+}
+
+/// The swarm of `world` as its tables say.
+pub fn swarm_env(world: &World) -> Result<SwarmEnv, LabError> {
+    swarm_env_with(world, &[])
+}
+
+/// One robot's learner and where its trajectory stands.
+struct Seat {
+    learner: Box<dyn Learner>,
+    rng: Rng,
+    s: State,
+    a: Action,
+    traj: Trajectory,
+    window_left: u64,
+    w_earned: f64,
+    w_received: f64,
+    truth: Truth,
+}
+
+/// One seed of `cfg` on the swarm of `world` (see the module's doc); the baseline, if
+/// `own_baseline`, is undelayed Q-learning on the same swarm without consultation.
+pub(crate) fn run_swarm_seed(
+    cfg: &RunConfig,
+    world: &World,
+    seed: u64,
+    ctl: Control<'_>,
+    mem_limit: u128,
+    own_baseline: bool,
+    factory: Option<&LearnerFactory<'_>>,
+) -> Result<SeedResult, LabError> {
+    let clock = Instant::now();
+    let mut env = swarm_env_with(world, &cfg.swarm)?;
+    let n = env.robots();
+    let (ns, na) = (env.num_states(), env.num_actions());
+    let mut seats = Vec::with_capacity(n);
+    for i in 0..n {
+        let learner = match factory {
+            Some(f) => f(ns, na, robot_seed(seed, i))?,
+            None => cfg.learner.build(ns, na, mem_limit / n as u128)?,
+        };
+        let traj = Trajectory { visits: vec![0; ns], ..Trajectory::default() };
+        let rng = SeedTree::new(robot_seed(seed, i)).rng(Stream::Explore);
+        seats.push(Seat {
+            learner,
+            rng,
+            s: 0,
+            a: 0,
+            traj,
+            window_left: cfg.window,
+            w_earned: 0.0,
+            w_received: 0.0,
+            truth: Truth::default(),
+        });
+    }
+    let learn_clock = Instant::now();
+    learn(&mut env, &mut seats, cfg, seed, ctl)?;
+    let learn_s = learn_clock.elapsed().as_secs_f64();
+    let mut env_stats = swarm_stats(&env, &seats);
+    let complete = seats.iter().all(|s| s.traj.steps_done == cfg.steps);
+    let eval_steps = if complete { cfg.eval_steps } else { 0 };
+    let (greedy_per_step, greedy_path) = evaluate(&mut env, &mut seats, eval_steps, seed)?;
+    let stopped = || ctl.stop.load(Ordering::Relaxed);
+    let maps_env =
+        RobotEnv::new(world, env.config().clone()).map_err(|e| LabError::EnvBuild(e.to_string()))?;
+    let (policy_arrows, policy_probs, values, whole) = policy_of(&maps_env, &*seats[0].learner, &stopped);
+    let failure = seats.iter().find_map(|s| s.learner.failure());
+    let complete = complete && whole && failure.is_none();
+    let (mut baseline, mut baseline_greedy) = (None, None);
+    if own_baseline && complete {
+        let base_cfg = cfg.baseline_run();
+        let b = run_swarm_seed(&base_cfg, world, seed, ctl, mem_limit, false, None)?;
+        if b.complete {
+            baseline_greedy = Some(b.greedy_per_step);
+            baseline = Some(b.run);
+        }
+    }
+    let complete = complete && (!own_baseline || baseline.is_some());
+    let diagnostics = seats[0].learner.diagnostics();
+    let tables = if cfg.save_tables { seats[0].learner.tables() } else { Vec::new() };
+    env_stats.push(("swarm/robots".into(), n as f64));
+    Ok(SeedResult {
+        seed,
+        complete,
+        run: swarm_trajectory(&seats, env.time_s()),
+        greedy_per_step,
+        greedy_path,
+        policy_arrows,
+        policy_probs,
+        values,
+        diagnostics,
+        env_stats,
+        tables,
+        baseline,
+        baseline_greedy_per_step: baseline_greedy,
+        wall_time_s: clock.elapsed().as_secs_f64(),
+        learn_time_s: learn_s,
+        failure,
+    })
+}
+
+/// The learning of every robot until each has made `cfg.steps` decisions, the stop
+/// flag is set or a learner fails.
+fn learn(
+    env: &mut SwarmEnv,
+    seats: &mut [Seat],
+    cfg: &RunConfig,
+    seed: u64,
+    ctl: Control<'_>,
+) -> Result<(), LabError> {
+    let seeds = SeedTree::new(seed);
+    let env_err = |source| LabError::Env { seed, source };
+    let states = env.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay)).map_err(env_err)?;
+    for (i, seat) in seats.iter_mut().enumerate() {
+        seat.s = states[i];
+        start_decision(env, i, seat, cfg.steps).map_err(env_err)?;
+    }
+    let n = seats.len() as u64;
+    let (mut decisions, mut reported) = (0u64, 0u64);
+    let mut out: Vec<SwarmStep> = Vec::with_capacity(seats.len());
+    loop {
+        if ctl.stop.load(Ordering::Relaxed) {
+            break;
+        }
+        out.clear();
+        env.advance(&mut out).map_err(env_err)?;
+        if out.is_empty() {
+            break;
+        }
+        for st in &out {
+            let seat = &mut seats[st.robot];
+            observe(seat, st, cfg.window);
+            decisions += 1;
+            start_decision(env, st.robot, seat, cfg.steps).map_err(env_err)?;
+        }
+        // Progress in the single robot's units: decisions per robot.
+        if decisions / n >= reported + 1024 {
+            (ctl.progress)(decisions / n - reported);
+            reported = decisions / n;
+        }
+    }
+    (ctl.progress)((decisions / n).saturating_sub(reported));
+    for seat in seats.iter_mut() {
+        close_curve(seat, cfg.window);
+    }
+    Ok(())
+}
+
+/// Asks robot `i`'s learner for its next action (or parks the robot when its budget is
+/// spent or its learner failed).
+fn start_decision(
+    env: &mut SwarmEnv,
+    i: usize,
+    seat: &mut Seat,
+    steps: u64,
+) -> Result<(), mmq_core::EnvError> {
+    if seat.traj.steps_done >= steps || seat.learner.failure().is_some() {
+        env.park(i);
+        return Ok(());
+    }
+    let d = seat.learner.act(seat.s, &mut seat.rng);
+    seat.a = d.action;
+    env.act(i, d.action)
+}
+
+/// Robot `seat`'s step `st`: the learner's observation and the trajectory's figures,
+/// as the single robot's step loop keeps them.
+fn observe(seat: &mut Seat, st: &SwarmStep, window: u64) {
+    let t = st.decision;
+    let needs_truth = seat.learner.needs_truth();
+    if needs_truth {
+        seat.truth.emitted_now = st.consultation.map(|_| st.step.reward);
+        seat.truth.delivered.clear();
+        seat.truth.delivered.extend(st.deliveries.iter().map(|d| (d.decision, d.value)));
+    }
+    seat.learner.observe(&Experience {
+        t,
+        state: seat.s,
+        action: seat.a,
+        next_state: st.step.state,
+        reward: st.delivered,
+        time_s: st.time_s,
+        truth: needs_truth.then_some(&seat.truth),
+    });
+    let traj = &mut seat.traj;
+    traj.visits[seat.s] += 1;
+    traj.events[event_index(st.step.event)] += 1;
+    traj.earned_total += st.step.reward;
+    traj.received_total += st.delivered;
+    for d in &st.deliveries {
+        traj.delays.delivered += 1;
+        traj.delays.sum_steps += (t - d.decision) as f64;
+        traj.delays.sum_s += st.time_s - d.emitted_s;
+    }
+    seat.w_earned += st.step.reward;
+    seat.w_received += st.delivered;
+    traj.steps_done = t + 1;
+    traj.sim_time_s = st.time_s;
+    seat.window_left -= 1;
+    if seat.window_left == 0 {
+        seat.window_left = window;
+        push_row(seat);
+    }
+    seat.s = st.step.state;
+}
+
+fn push_row(seat: &mut Seat) {
+    let traj = &mut seat.traj;
+    traj.curve.push(CurveRow {
+        step: traj.steps_done,
+        earned: seat.w_earned,
+        received: seat.w_received,
+        earned_cum: traj.earned_total,
+        received_cum: traj.received_total,
+    });
+    seat.w_earned = 0.0;
+    seat.w_received = 0.0;
+}
+
+/// The last, partial window of the curve.
+fn close_curve(seat: &mut Seat, window: u64) {
+    if !seat.traj.steps_done.is_multiple_of(window) {
+        push_row(seat);
+    }
+}
+
+fn event_index(e: Event) -> usize {
+    match e {
+        Event::Moved => 0,
+        Event::WallBump => 1,
+        Event::Teleport => 2,
+        Event::TimedOut => 3,
+    }
+}
+
+/// The swarm's trajectory: rewards and curve the mean over robots, counts the totals.
+fn swarm_trajectory(seats: &[Seat], sim_time_s: f64) -> Trajectory {
+    let n = seats.len() as f64;
+    let mut out = Trajectory {
+        steps_done: seats.iter().map(|s| s.traj.steps_done).min().unwrap_or(0),
+        sim_time_s,
+        ..Trajectory::default()
+    };
+    if let [one] = seats {
+        return Trajectory { sim_time_s: one.traj.sim_time_s, ..one.traj.clone() };
+    }
+    out.earned_total = seats.iter().map(|s| s.traj.earned_total).sum::<f64>() / n;
+    out.received_total = seats.iter().map(|s| s.traj.received_total).sum::<f64>() / n;
+    out.visits = vec![0; seats[0].traj.visits.len()];
+    out.delays = DelayStats::default();
+    for s in seats {
+        for (e, x) in out.events.iter_mut().zip(s.traj.events) {
+            *e += x;
+        }
+        for (v, x) in out.visits.iter_mut().zip(&s.traj.visits) {
+            *v += x;
+        }
+        out.delays.delivered += s.traj.delays.delivered;
+        out.delays.sum_steps += s.traj.delays.sum_steps;
+        out.delays.sum_s += s.traj.delays.sum_s;
+    }
+    let rows = seats.iter().map(|s| s.traj.curve.len()).min().unwrap_or(0);
+    out.curve = (0..rows)
+        .map(|r| {
+            let mean = |f: fn(&CurveRow) -> f64| seats.iter().map(|s| f(&s.traj.curve[r])).sum::<f64>() / n;
+            CurveRow {
+                step: seats[0].traj.curve[r].step,
+                earned: mean(|c| c.earned),
+                received: mean(|c| c.received),
+                earned_cum: mean(|c| c.earned_cum),
+                received_cum: mean(|c| c.received_cum),
+            }
+        })
+        .collect();
+    out
+}
+
+/// Greedy evaluation of the swarm: robot 0 starts at `S` (the single robot's
+/// evaluation), the others as the swarm's starts say; every robot acts greedily for
+/// `steps` decisions without updates. Returns the mean emitted reward per decision over
+/// robots and robot 0's first states.
+fn evaluate(
+    env: &mut SwarmEnv,
+    seats: &mut [Seat],
+    steps: u64,
+    seed: u64,
+) -> Result<(f64, Vec<usize>), LabError> {
+    if steps == 0 {
+        return Ok((f64::NAN, Vec::new()));
+    }
+    let env_err = |source| LabError::Env { seed, source };
+    let seeds = SeedTree::new(seed);
+    let states = env
+        .reset_from(seeds.seed(Stream::Eval), seeds.seed(Stream::Delay), Start::Respawn)
+        .map_err(env_err)?;
+    let mut rngs: Vec<Rng> =
+        (0..seats.len()).map(|i| SeedTree::new(robot_seed(seed, i)).rng(Stream::Eval)).collect();
+    let mut s = states;
+    let mut done = vec![0u64; seats.len()];
+    let mut total = vec![0.0; seats.len()];
+    let mut path = vec![s[0]];
+    for i in 0..seats.len() {
+        let a = seats[i].learner.greedy(s[i], &mut rngs[i]);
+        env.act(i, a).map_err(env_err)?;
+    }
+    let mut out = Vec::new();
+    loop {
+        out.clear();
+        env.advance(&mut out).map_err(env_err)?;
+        if out.is_empty() {
+            break;
+        }
+        for st in &out {
+            let i = st.robot;
+            total[i] += st.step.reward;
+            s[i] = st.step.state;
+            done[i] += 1;
+            if i == 0 && path.len() < 200 {
+                path.push(s[0]);
+            }
+            if done[i] < steps {
+                let a = seats[i].learner.greedy(s[i], &mut rngs[i]);
+                env.act(i, a).map_err(env_err)?;
+            } else {
+                env.park(i);
+            }
+        }
+    }
+    let per_step = total.iter().map(|t| t / steps as f64).sum::<f64>() / seats.len() as f64;
+    Ok((per_step, path))
+}
+
+/// The environment figures: the robots' own (their mean), each robot's reward, and the
+/// delays that emerged, for each robot and for the swarm.
+fn swarm_stats(env: &SwarmEnv, seats: &[Seat]) -> Vec<(String, f64)> {
+    let n = env.robots();
+    let mut out = env.stats(0);
+    for i in 1..n {
+        for ((_, v), (_, x)) in out.iter_mut().zip(env.stats(i)) {
+            *v += x;
+        }
+    }
+    if n > 1 {
+        for (_, v) in &mut out {
+            *v /= n as f64;
+        }
+    }
+    let delays = env.delays();
+    let in_flight = env.in_flight();
+    for (i, (seat, d)) in seats.iter().zip(delays).enumerate() {
+        let steps = seat.traj.steps_done.max(1) as f64;
+        let p = format!("swarm/robot{i}/");
+        out.push((format!("{p}earned_per_step"), seat.traj.earned_total / steps));
+        out.push((format!("{p}received_per_step"), seat.traj.received_total / steps));
+        out.push((format!("{p}robot_bumps"), env.robot_bumps(i) as f64));
+        out.push((format!("{p}lost"), d.lost as f64));
+        out.push((format!("{p}in_flight"), in_flight[i].0 as f64));
+        out.extend(delay_figures(&p, std::slice::from_ref(d)));
+    }
+    let sum = |f: fn(&RobotDelays) -> u64| delays.iter().map(f).sum::<u64>() as f64;
+    out.push(("swarm/emitted".into(), sum(|d| d.emitted)));
+    out.push(("swarm/delivered".into(), sum(|d| d.delivered)));
+    out.push(("swarm/lost".into(), sum(|d| d.lost)));
+    out.push(("swarm/in_flight".into(), in_flight.iter().map(|f| f.0).sum::<u64>() as f64));
+    out.push(("swarm/robot_bumps".into(), (0..n).map(|i| env.robot_bumps(i)).sum::<u64>() as f64));
+    out.extend(delay_figures("swarm/", delays));
+    out
+}
+
+/// Mean, quantiles and maximum of the completed consultations' delays, and their mean
+/// and largest hop count (nothing when none completed).
+fn delay_figures(prefix: &str, delays: &[RobotDelays]) -> Vec<(String, f64)> {
+    let mut all: Vec<f64> = delays.iter().flat_map(|d| d.delays_s.iter().map(|&x| x as f64)).collect();
+    if all.is_empty() {
+        return Vec::new();
+    }
+    all.sort_by(f64::total_cmp);
+    let q = |p: f64| all[((all.len() - 1) as f64 * p).round() as usize];
+    let hops: Vec<u8> = delays.iter().flat_map(|d| d.hops.iter().copied()).collect();
+    let mean_hops = hops.iter().map(|&h| h as f64).sum::<f64>() / hops.len().max(1) as f64;
+    vec![
+        (format!("{prefix}delay_mean_s"), all.iter().sum::<f64>() / all.len() as f64),
+        (format!("{prefix}delay_p50_s"), q(0.5)),
+        (format!("{prefix}delay_p90_s"), q(0.9)),
+        (format!("{prefix}delay_p99_s"), q(0.99)),
+        (format!("{prefix}delay_max_s"), all[all.len() - 1]),
+        (format!("{prefix}hops_mean"), mean_hops),
+        (format!("{prefix}hops_max"), hops.iter().copied().max().unwrap_or(0) as f64),
+    ]
+}
