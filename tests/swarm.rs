@@ -97,3 +97,57 @@ fn a_swarms_results_do_not_depend_on_the_thread_count() {
     assert!(mean["env/swarm/delivered"]["mean"].as_f64().unwrap() > 0.0, "{mean:?}");
     assert!(mean["env/swarm/delay_mean_s"]["mean"].as_f64().unwrap() > 0.0);
 }
+
+/// A sweep takes swarm settings as an axis, and its report has the swarm's section with
+/// the histogram of the emerged delays and the delay against hops.
+#[test]
+fn a_sweep_takes_swarm_settings_as_an_axis_and_reports_the_emerged_delays() {
+    let d = tempfile::tempdir().unwrap();
+    let spec = d.path().join("s.toml");
+    let world = root().join("worlds/paper-9x9.toml");
+    std::fs::write(
+        &spec,
+        format!(
+            "name = \"s\"\nworld = {:?}\nenv = \"swarm\"\ndelay = \"none\"\nlearner = \"q\"\nsteps = 300\nwindow = 100\neval_steps = 20\nbaseline = false\nseeds = 1\nswarm = [\"robots=3 consult=peers k=1 hop_delay=const:1s radio_range_m=9\", \"robots=2 consult=server hop_delay=const:1s radio_range_m=9\"]\n",
+            world.to_string_lossy()
+        ),
+    )
+    .unwrap();
+    let out = d.path().join("out");
+    let o = mmq(&["sweep", &spec.to_string_lossy(), "--out", &out.to_string_lossy(), "-q"]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let o = mmq(&["sweep", "report", &out.to_string_lossy()]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    let md = std::fs::read_to_string(out.join("report/report.md")).unwrap();
+    assert!(md.contains("## The swarm") && md.contains("robots=3 consult=peers"), "{md}");
+    for f in ["swarm-delays.png", "swarm-delay-hops.png"] {
+        assert!(out.join("report").join(f).is_file(), "{f}");
+    }
+    // Everyone in range with a constant hop: one hop there and back, 2 s.
+    let csv = std::fs::read_to_string(out.join("report/summary.csv")).unwrap();
+    assert!(csv.contains("env/swarm/delay_mean_s_by_hops/1"), "{csv}");
+
+    // A swarm setting where no cell runs the swarm, and a bad swarm value, are refused
+    // naming the field.
+    let bad = d.path().join("bad.toml");
+    for (body, expect) in [
+        ("env = \"robot\"\nswarm = \"robots=2\"\n", "no cell runs the swarm"),
+        ("env = \"swarm\"\ndelay = \"none\"\nswarm = \"robots=0\"\n", "field `robots` = 0"),
+        ("env = \"swarm\"\nswarm = \"robots=2\"\n", "delay none"),
+    ] {
+        std::fs::write(
+            &bad,
+            format!("name = \"b\"\nworld = {:?}\nlearner = \"q\"\n{body}", world.to_string_lossy()),
+        )
+        .unwrap();
+        let o = mmq(&[
+            "sweep",
+            &bad.to_string_lossy(),
+            "--out",
+            &d.path().join("b").to_string_lossy(),
+            "--dry-run",
+        ]);
+        assert_eq!(o.status.code(), Some(3), "{body}: {}", text(&o).1);
+        assert!(text(&o).1.contains(expect), "{body}: {}", text(&o).1);
+    }
+}

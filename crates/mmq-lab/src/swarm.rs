@@ -399,7 +399,59 @@ fn swarm_stats(env: &SwarmEnv, seats: &[Seat]) -> Vec<(String, f64)> {
     out.push(("swarm/lost".into(), sum(|d| d.lost)));
     out.push(("swarm/in_flight".into(), in_flight.iter().map(|f| f.0).sum::<u64>() as f64));
     out.push(("swarm/robot_bumps".into(), (0..n).map(|i| env.robot_bumps(i)).sum::<u64>() as f64));
+    let emitted = sum(|d| d.emitted);
+    if emitted > 0.0 {
+        out.push(("swarm/lost_share".into(), sum(|d| d.lost) / emitted));
+    }
     out.extend(delay_figures("swarm/", delays));
+    out.extend(delay_shape(delays));
+    out
+}
+
+/// Upper edges of the bins of the emerged delays' histogram, seconds (the last bin is
+/// open): doubling from half a second.
+pub const DELAY_BINS_S: [f64; 10] = [0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 128.0, 256.0];
+
+/// The name of bin `k` of [`DELAY_BINS_S`] (`0-0.5s`, …, `256s+`).
+pub fn delay_bin_name(k: usize) -> String {
+    match k {
+        0 => format!("0-{}s", DELAY_BINS_S[0]),
+        k if k < DELAY_BINS_S.len() => format!("{}-{}s", DELAY_BINS_S[k - 1], DELAY_BINS_S[k]),
+        _ => format!("{}s+", DELAY_BINS_S[DELAY_BINS_S.len() - 1]),
+    }
+}
+
+/// The swarm's histogram of completed consultations' delays (`swarm/delay_share/BIN`,
+/// shares of the completed ones), and per hop count the share of consultations that
+/// took it and their mean delay (`swarm/hops_share/H`, `swarm/delay_mean_s_by_hops/H`).
+fn delay_shape(delays: &[RobotDelays]) -> Vec<(String, f64)> {
+    let mut bins = [0u64; DELAY_BINS_S.len() + 1];
+    let mut by_hops: Vec<(u64, f64)> = Vec::new();
+    let mut n = 0u64;
+    for d in delays {
+        for (&x, &h) in d.delays_s.iter().zip(&d.hops) {
+            let x = x as f64;
+            bins[DELAY_BINS_S.iter().position(|&e| x < e).unwrap_or(DELAY_BINS_S.len())] += 1;
+            if by_hops.len() <= h as usize {
+                by_hops.resize(h as usize + 1, (0, 0.0));
+            }
+            by_hops[h as usize].0 += 1;
+            by_hops[h as usize].1 += x;
+            n += 1;
+        }
+    }
+    if n == 0 {
+        return Vec::new();
+    }
+    let mut out: Vec<(String, f64)> = bins
+        .iter()
+        .enumerate()
+        .map(|(k, &c)| (format!("swarm/delay_share/{}", delay_bin_name(k)), c as f64 / n as f64))
+        .collect();
+    for (h, &(c, s)) in by_hops.iter().enumerate().filter(|(_, x)| x.0 > 0) {
+        out.push((format!("swarm/hops_share/{h}"), c as f64 / n as f64));
+        out.push((format!("swarm/delay_mean_s_by_hops/{h}"), s / c as f64));
+    }
     out
 }
 
@@ -423,4 +475,50 @@ fn delay_figures(prefix: &str, delays: &[RobotDelays]) -> Vec<(String, f64)> {
         (format!("{prefix}hops_mean"), mean_hops),
         (format!("{prefix}hops_max"), hops.iter().copied().max().unwrap_or(0) as f64),
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn robot(delays: &[f32], hops: &[u8], lost: u64) -> RobotDelays {
+        RobotDelays {
+            emitted: delays.len() as u64 + lost,
+            delivered: delays.len() as u64,
+            lost,
+            delays_s: delays.to_vec(),
+            hops: hops.to_vec(),
+        }
+    }
+
+    fn get(xs: &[(String, f64)], k: &str) -> f64 {
+        xs.iter().find(|x| x.0 == k).map_or(f64::NAN, |x| x.1)
+    }
+
+    /// Hand-computed: delays 0.25, 1, 3 and 300 s over 1, 1, 2 and 3 hops.
+    #[test]
+    fn the_delay_figures_and_histogram_are_the_hand_computed_ones() {
+        let ds = [robot(&[0.25, 3.0], &[1, 2], 1), robot(&[1.0, 300.0], &[1, 3], 0)];
+        let f = delay_figures("swarm/", &ds);
+        assert_eq!(get(&f, "swarm/delay_mean_s"), (0.25 + 1.0 + 3.0 + 300.0) / 4.0);
+        // Sorted 0.25, 1, 3, 300: index round(3 p).
+        assert_eq!(get(&f, "swarm/delay_p50_s"), 3.0); // round(1.5) = 2
+        assert_eq!(get(&f, "swarm/delay_p90_s"), 300.0);
+        assert_eq!(get(&f, "swarm/delay_max_s"), 300.0);
+        assert_eq!((get(&f, "swarm/hops_mean"), get(&f, "swarm/hops_max")), (7.0 / 4.0, 3.0));
+        let h = delay_shape(&ds);
+        assert_eq!(get(&h, "swarm/delay_share/0-0.5s"), 0.25);
+        assert_eq!(get(&h, "swarm/delay_share/1-2s"), 0.25); // 1 s is in [1, 2)
+        assert_eq!(get(&h, "swarm/delay_share/2-4s"), 0.25);
+        assert_eq!(get(&h, "swarm/delay_share/256s+"), 0.25);
+        assert_eq!(get(&h, "swarm/delay_share/0.5-1s"), 0.0);
+        let shares: f64 = h.iter().filter(|x| x.0.starts_with("swarm/delay_share/")).map(|x| x.1).sum();
+        assert_eq!(shares, 1.0);
+        assert_eq!((get(&h, "swarm/hops_share/1"), get(&h, "swarm/delay_mean_s_by_hops/1")), (0.5, 0.625));
+        assert_eq!(get(&h, "swarm/delay_mean_s_by_hops/3"), 300.0);
+        assert!(h.iter().all(|x| x.0 != "swarm/hops_share/0"));
+        // Nothing completed: no figures (a mean of nothing is not 0).
+        assert!(delay_figures("swarm/", &[robot(&[], &[], 3)]).is_empty());
+        assert!(delay_shape(&[robot(&[], &[], 3)]).is_empty());
+    }
 }

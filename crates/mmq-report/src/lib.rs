@@ -14,6 +14,7 @@ mod comparison;
 pub mod leaderboard;
 pub mod paper;
 mod reference;
+mod swarm;
 pub mod sweep;
 pub mod terminal;
 pub mod text;

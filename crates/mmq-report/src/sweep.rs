@@ -74,6 +74,7 @@ pub fn report(dirs: &[PathBuf], out: Option<&Path>) -> Result<SweepReport, Repor
     n_figures += bridge_sections(&plan, &stats, &out, &mut md, |c| {
         bases.get(part_of.get(c).copied().unwrap_or(0)).cloned().unwrap_or_default()
     })?;
+    n_figures += crate::swarm::swarm_section(&plan, &stats, &out, &mut md)?;
     let csv_path = out.join("summary.csv");
     mmq_lab::output::write_atomic(&csv_path, summary_csv(&plan, &stats).as_bytes())?;
     let md_path = out.join("report.md");

@@ -37,6 +37,9 @@ pub(super) struct CellFields {
     pub(super) baseline: bool,
     #[serde(skip_serializing_if = "RobotSetting::is_empty")]
     pub(super) robot: RobotSetting,
+    /// `KEY=VALUE` overrides of the world's `[swarm]` table (same syntax as `robot`).
+    #[serde(skip_serializing_if = "RobotSetting::is_empty")]
+    pub(super) swarm: RobotSetting,
 }
 
 impl Default for CellFields {
@@ -59,6 +62,7 @@ impl Default for CellFields {
             eval_steps: d.eval_steps,
             baseline: d.baseline,
             robot: RobotSetting::default(),
+            swarm: RobotSetting::default(),
         }
     }
 }
@@ -96,10 +100,11 @@ impl CellFields {
         let env = match self.env.as_str() {
             "grid" => EnvKind::Grid,
             "robot" => EnvKind::Robot,
+            "swarm" => EnvKind::Swarm,
             e => {
                 return Err(LabError::Setting {
                     field: "env".into(),
-                    message: format!("`{e}` is not an environment; use grid or robot"),
+                    message: format!("`{e}` is not an environment; use grid, robot or swarm"),
                 });
             }
         };
@@ -129,6 +134,8 @@ impl CellFields {
             save_tables: false,
             ledger: false,
             robot: self.robot.0.clone(),
+            // Only the swarm reads them (a spec may list env = ["robot", "swarm"]).
+            swarm: if env == EnvKind::Swarm { self.swarm.0.clone() } else { Vec::new() },
             ..RunConfig::default()
         })
     }

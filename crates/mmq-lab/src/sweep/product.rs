@@ -84,6 +84,15 @@ pub(super) fn product(
             "no cell runs the robot; add \"robot\" to `env` (e.g. env = [\"grid\", \"robot\"]), or remove `robot`",
         ));
     }
+    if let Some(s) = ax.at("swarm").map(|k| &ax.axes[k])
+        && !ax.named("env").texts.iter().any(|e| e == EnvKind::Swarm.name())
+    {
+        return Err(src.error(
+            s.offset,
+            "swarm",
+            "no cell runs the swarm; add \"swarm\" to `env` (e.g. env = \"swarm\"), or remove `swarm`",
+        ));
+    }
     if let Some(c) = curve {
         check_curve(
             src,
@@ -122,7 +131,10 @@ fn axes(src: &Source<'_>, mut g: Given, curve: Option<&Spanned<u64>>) -> Result<
     if let Some(v) = g.fields.remove("robot") {
         axes.push(Axis::given("robot".into(), v));
     }
-    debug_assert!(g.fields.is_empty(), "a cell field outside FIELDS and robot: {:?}", g.fields);
+    if let Some(v) = g.fields.remove("swarm") {
+        axes.push(Axis::given("swarm".into(), v));
+    }
+    debug_assert!(g.fields.is_empty(), "a cell field outside FIELDS, robot and swarm: {:?}", g.fields);
     let n_fields = axes.len();
     for axis in &mut axes {
         for i in 0..axis.values.len() {
@@ -298,9 +310,23 @@ fn cells(
                 file: src.file.to_string(),
                 message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
             })?;
+        let world = idx[0] * robot_settings + robot_at.map_or(0, |k| idx[k]);
+        if cfg.env == EnvKind::Swarm {
+            let checked = cfg.validate().map(|_| ()).and_then(|()| {
+                mmq_robot::swarm::SwarmConfig::from_world(&worlds.loaded[world], &cfg.swarm)
+                    .map(|_| ())
+                    .map_err(|e| LabError::EnvBuild(e.to_string()))
+            });
+            if let Err(e) = checked {
+                return Err(LabError::Config {
+                    file: src.file.to_string(),
+                    message: format!("cell {} ({}): {}", cells.len(), params.join(", "), plain_message(&e)),
+                });
+            }
+        }
         cells.push(PlanCell { id, params, seeds: None });
         configs.push(cfg);
-        world_of.push(idx[0] * robot_settings + robot_at.map_or(0, |k| idx[k]));
+        world_of.push(world);
         // Odometer: the last field varies fastest.
         for k in (0..idx.len()).rev() {
             idx[k] += 1;
@@ -371,6 +397,10 @@ fn check_value(name: &str, cell: &CellFields) -> Result<(), String> {
         "robot" if cell.robot.is_empty() => {
             Err("no overrides; give KEY=VALUE overrides of the [robot] table, e.g. \"profile=ideal\"".into())
         }
+        "swarm" if cell.swarm.is_empty() => {
+            Err("no overrides; give KEY=VALUE overrides of the [swarm] table, e.g. \"robots=4 consult=peers k=2\"".into())
+        }
+        "swarm" => mmq_robot::swarm::apply_swarm_overrides(None, &cell.swarm.0).map(|_| ()).map_err(|e| e.to_string()),
         "max_delay" | "lambda_hat" => {
             let x = if name == "max_delay" { cell.max_delay } else { cell.lambda_hat };
             if usize::try_from(x).is_err() || x > 1_000_000 {
@@ -378,6 +408,12 @@ fn check_value(name: &str, cell: &CellFields) -> Result<(), String> {
             }
             Ok(())
         }
+        // The swarm's delays emerge: alone, its cell is checked without the default delay.
+        "env" if cell.env == EnvKind::Swarm.name() => CellFields { delay: "none".into(), ..cell.clone() }
+            .run_config(PathBuf::new(), 0, &[])
+            .and_then(|c| c.validate())
+            .map(|_| ())
+            .map_err(|e| plain_message(&e)),
         _ => cell
             .run_config(PathBuf::new(), 0, &[])
             .and_then(|c| c.validate())

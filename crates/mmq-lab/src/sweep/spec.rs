@@ -104,8 +104,9 @@ fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
     // FIELDS, then `robot`, `curve` and the settings.
     let rank = |f: &str| match f {
         "robot" => FIELDS.len(),
-        "curve" => FIELDS.len() + 1,
-        f => FIELDS.iter().position(|x| *x == f).unwrap_or(FIELDS.len() + 2),
+        "swarm" => FIELDS.len() + 1,
+        "curve" => FIELDS.len() + 2,
+        f => FIELDS.iter().position(|x| *x == f).unwrap_or(FIELDS.len() + 3),
     };
     let mut fields: Vec<String> = Vec::new();
     for p in &products {

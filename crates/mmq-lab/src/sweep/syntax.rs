@@ -197,7 +197,7 @@ impl Given {
     }
 
     /// Takes the cell field `key = value`; a key that is not one (of [`FIELDS`] or
-    /// `robot`, the fields of `super::cell::CellFields`) is refused at the key.
+    /// `robot` or `swarm`, the fields of `super::cell::CellFields`) is refused at the key.
     fn field(
         &mut self,
         src: &Source<'_>,
@@ -205,7 +205,7 @@ impl Given {
         value: Spanned<toml::Value>,
     ) -> Result<(), LabError> {
         let (at, name) = (key.span().start, key.into_inner());
-        let cell_fields = || FIELDS.iter().chain(&["robot"]);
+        let cell_fields = || FIELDS.iter().chain(&["robot", "swarm"]);
         if !cell_fields().any(|f| *f == name) {
             let known: Vec<String> = cell_fields().map(|f| format!("`{f}`")).collect();
             let message =
