@@ -51,6 +51,10 @@ pub struct SwarmStep {
     /// The earned reward's consultation: `Some(delay, hops)`, or `None` when it will
     /// never complete (the reward is lost) or the reward is zero.
     pub consultation: Option<(f64, u32)>,
+    /// The radio hops (from node, to node) the earned reward's consultation sent
+    /// messages over, for drawing; robots are nodes `0..robots`, the base station is
+    /// node `robots`. Empty without a consultation.
+    pub links: Vec<(u32, u32)>,
 }
 
 impl SwarmStep {
@@ -145,6 +149,7 @@ impl Post {
         positions: &[(f64, f64)],
     ) -> SwarmStep {
         let mut consultation = None;
+        let mut links = Vec::new();
         if step.reward != 0.0 {
             let d = &mut self.delays[robot];
             d.emitted += 1;
@@ -152,6 +157,7 @@ impl Post {
                 None => (Some(0.0), 0),
                 Some(model) => {
                     let c = self.network.consult(model, robot, positions, &mut self.rng);
+                    links = c.links;
                     (c.delay_s, c.hops)
                 }
             };
@@ -176,7 +182,7 @@ impl Post {
             }
         }
         self.delays[robot].delivered += deliveries.len() as u64;
-        SwarmStep { robot, decision, step, time_s: now, delivered, deliveries, consultation }
+        SwarmStep { robot, decision, step, time_s: now, delivered, deliveries, consultation, links }
     }
 
     pub fn delays(&self) -> &[RobotDelays] {

@@ -24,6 +24,7 @@ use rapier2d::prelude::{ColliderHandle, PhysicsWorld, RigidBodyHandle};
 pub use self::config::{Consult, MAX_ROBOTS, SWARM_FIELDS, Starts, SwarmConfig, apply_swarm_overrides};
 use self::deliver::Post;
 pub use self::deliver::{Delivery, RobotDelays, SwarmStep};
+
 use crate::arena::{Collector, Wall, insert_robot, new_world};
 use crate::config::{RobotConfig, RobotError};
 use crate::primitive::{Begin, PrimRun, raw_pose};
@@ -74,6 +75,21 @@ pub struct SwarmEnv {
     phys: PhysicsWorld,
     collector: Collector,
     post: Post,
+    /// Pose frames of every robot every `period` seconds of simulated time (`None`: off).
+    trace_period: Option<f64>,
+    next_frame_s: f64,
+    frames: Vec<SwarmFrame>,
+}
+
+/// Every robot's pose (and estimate, realistic profile) at one instant.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SwarmFrame {
+    /// Simulated time, seconds.
+    pub time_s: f64,
+    /// Every robot's true pose, robot order.
+    pub poses: Vec<PoseSample>,
+    /// Every robot's pose estimate (`None` on the ideal profile).
+    pub estimates: Vec<Option<PoseSample>>,
 }
 
 impl std::fmt::Debug for SwarmEnv {
@@ -114,6 +130,9 @@ impl SwarmEnv {
             phys,
             collector: Collector::default(),
             post,
+            trace_period: None,
+            next_frame_s: 0.0,
+            frames: Vec::new(),
         })
     }
 
@@ -211,6 +230,9 @@ impl SwarmEnv {
             e.clear();
         }
         self.post.reset(net_seed, self.members.len());
+        self.frames.clear();
+        self.next_frame_s = 0.0;
+        self.sample_frames();
         self.members.iter().map(|m| m.core.current_state(&self.phys.bodies[m.body])).collect()
     }
 
@@ -329,6 +351,7 @@ impl SwarmEnv {
                     prim.after_physics(&m.core);
                 }
             }
+            self.sample_frames();
         }
     }
 
@@ -356,6 +379,35 @@ impl SwarmEnv {
             out.push(self.post.after_step(i, decision, now, step, &positions));
         }
         Ok(())
+    }
+
+    /// Records a frame of every robot's pose every `period_s` seconds of simulated time
+    /// (from the next reset or frame on; `None` or a non-positive period: off). Frames
+    /// cost nothing while off.
+    pub fn set_trace(&mut self, period_s: Option<f64>) {
+        self.trace_period = period_s.filter(|p| p.is_finite() && *p > 0.0);
+        self.next_frame_s = self.time_s();
+    }
+
+    /// Moves the frames recorded since the last call into `out` (emptied first), oldest
+    /// first.
+    pub fn take_frames(&mut self, out: &mut Vec<SwarmFrame>) {
+        out.clear();
+        std::mem::swap(&mut self.frames, out);
+    }
+
+    /// A frame of every robot if one is due.
+    fn sample_frames(&mut self) {
+        let Some(period) = self.trace_period else { return };
+        let now = self.time_s();
+        if now < self.next_frame_s {
+            return;
+        }
+        while self.next_frame_s <= now {
+            self.next_frame_s += period;
+        }
+        let (poses, estimates) = (self.poses(), self.estimates());
+        self.frames.push(SwarmFrame { time_s: now, poses, estimates });
     }
 
     /// Every robot's true pose.

@@ -172,3 +172,41 @@ fn a_robot_out_of_range_never_gets_its_rewards() {
     assert!(d.iter().all(|d| d.delivered == 0 && d.lost == d.emitted));
     assert!(d.iter().map(|d| d.emitted).sum::<u64>() > 10);
 }
+
+#[test]
+fn frames_sample_every_robot_at_the_trace_rate_and_consultations_name_their_links() {
+    let world = crate::world("paper-9x9");
+    let mut env = swarm(&world, "realistic", &["robots=3", "consult=server", "radio_range_m=20"]);
+    env.set_trace(Some(0.5));
+    let steps = drive(&mut env, 4, 60);
+    let mut frames = Vec::new();
+    env.take_frames(&mut frames);
+    assert_eq!(frames[0].time_s, 0.0);
+    let dt = env.config().dt_s;
+    // Frame k is the first physics step at or after k × 0.5 s.
+    for (k, f) in frames.iter().enumerate() {
+        let tick = k as f64 * 0.5;
+        assert!(f.time_s >= tick - 1e-9 && f.time_s < tick + dt + 1e-9, "frame {k} at {}", f.time_s);
+    }
+    assert!(frames.iter().all(|f| f.poses.len() == 3 && f.estimates.iter().all(Option::is_some)));
+    let last = steps.last().unwrap().time_s;
+    assert!(frames.last().unwrap().time_s > last - 0.5 - dt);
+    // Taken frames are gone; tracing off records none.
+    env.take_frames(&mut frames);
+    assert!(frames.is_empty());
+    // A consultation with the server (node 3) in reach of everyone: one hop there, one back.
+    let consulted: Vec<&SwarmStep> = steps.iter().filter(|s| s.consultation.is_some()).collect();
+    assert!(!consulted.is_empty());
+    for s in consulted {
+        let r = s.robot as u32;
+        assert_eq!(
+            s.links,
+            vec![(r, 3), (3, r)]
+                .into_iter()
+                .collect::<std::collections::BTreeSet<_>>()
+                .into_iter()
+                .collect::<Vec<_>>()
+        );
+    }
+    assert!(steps.iter().filter(|s| s.consultation.is_none()).all(|s| s.links.is_empty()));
+}
