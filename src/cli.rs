@@ -158,6 +158,11 @@ pub struct RunArgs {
     /// Steps of greedy evaluation from S after learning.
     #[arg(long, default_value_t = 1000)]
     pub eval_steps: u64,
+    /// Also run the grid-optimal reference (the world's optimal policy, acting ε-greedily)
+    /// on the same environment and seeds: what the robot allows, and the run's fraction of
+    /// it (perf/fraction_of_reference). Grid and robot.
+    #[arg(long)]
+    pub reference: bool,
     /// Skip the undelayed Q-learning baseline (no relative performance).
     #[arg(long)]
     pub no_baseline: bool,

@@ -48,6 +48,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         window: a.window,
         eval_steps: a.eval_steps,
         baseline: !a.no_baseline,
+        reference: a.reference,
         save_tables: !a.no_tables,
         ledger: false,
         record: a.record.then_some(mmq_lab::config::RecordSettings {

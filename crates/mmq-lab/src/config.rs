@@ -57,6 +57,11 @@ pub struct RunConfig {
     /// Also run undelayed Q-learning with the same world, seed, ε, q0 and horizon, the
     /// denominator of the relative performance (eq. 3).
     pub baseline: bool,
+    /// Also run the reference `grid-optimal` (the world MDP's optimal policy, acting
+    /// ε-greedily with the run's ε) on the same environment, seeds and steps: what the
+    /// environment allows, the denominator of `perf/fraction_of_reference`.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub reference: bool,
     /// Write the Q-tables as `.npy`.
     pub save_tables: bool,
     /// Keep the delay channel's ground-truth ledger (needed by the oracle and logs).
@@ -110,6 +115,7 @@ impl Default for RunConfig {
             window: 1000,
             eval_steps: 1000,
             baseline: true,
+            reference: false,
             save_tables: true,
             ledger: false,
             record: None,
@@ -167,6 +173,13 @@ impl RunConfig {
                 "recordings and the live view show one robot; run the swarm without them",
             ));
         }
+        if self.env == EnvKind::Swarm && self.reference {
+            return Err(LabError::param(
+                "reference",
+                "true",
+                "the grid-optimal reference runs on the grid and the single robot; run the swarm without it",
+            ));
+        }
         if self.env != EnvKind::Swarm && !self.swarm.is_empty() {
             return Err(LabError::param(
                 "swarm",
@@ -202,6 +215,7 @@ impl RunConfig {
             learner: self.baseline_learner(),
             delay: "none".into(),
             baseline: false,
+            reference: false,
             swarm,
             ..self.clone()
         }
@@ -247,7 +261,7 @@ impl RunConfig {
     /// Decision steps the run makes in all, every seed's and their baselines' (the length
     /// of its progress).
     pub fn total_steps(&self) -> u64 {
-        self.steps * self.seeds * if self.baseline { 2 } else { 1 }
+        self.steps * self.seeds * (1 + u64::from(self.baseline) + u64::from(self.reference))
     }
 
     /// The master seeds of this run.

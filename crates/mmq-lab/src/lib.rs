@@ -13,6 +13,7 @@ pub mod error;
 pub mod exec;
 pub mod fields;
 pub mod format;
+pub mod grid_optimal;
 pub mod lock;
 pub mod output;
 pub mod paper;

@@ -12,6 +12,7 @@ use mmq_robot::{RobotConfig, RobotEnv};
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
+use crate::grid_optimal::{GridOptimal, NAME};
 use crate::stepper::{Evaluation, Stepper};
 use crate::trajectory::policy_of;
 pub use crate::trajectory::{
@@ -251,6 +252,8 @@ pub(crate) fn conclude<E: Env + Telemetry>(
         }
     }
     let complete = complete && (!own_baseline || baseline.is_some());
+    let reference = if cfg.reference && complete { reference_run(cfg, seed, ctl, make)? } else { None };
+    let complete = complete && (!cfg.reference || reference.is_some());
     Ok(SeedResult {
         seed,
         complete,
@@ -265,10 +268,29 @@ pub(crate) fn conclude<E: Env + Telemetry>(
         tables: if cfg.save_tables { learner.tables() } else { Vec::new() },
         baseline,
         baseline_greedy_per_step: baseline_greedy,
+        reference,
         wall_time_s: clock.elapsed().as_secs_f64(),
         learn_time_s: learn_s,
         failure,
     })
+}
+
+/// The reference `grid-optimal` on an environment of `make` with `cfg`'s steps, ε and
+/// the seed's streams (no delay: it does not learn); `None` if stopped.
+fn reference_run<E: Env + Telemetry>(
+    cfg: &RunConfig,
+    seed: u64,
+    ctl: Control<'_>,
+    make: &dyn Fn() -> Result<E, LabError>,
+) -> Result<Option<Trajectory>, LabError> {
+    let env = make()?;
+    let optimum = optimum_of(env.world());
+    let name = cfg.world.display().to_string();
+    let mut agent =
+        GridOptimal::new(&optimum, cfg.learner.params.epsilon, env.num_states(), env.num_actions(), &name)?;
+    let seeds = SeedTree::new(seed);
+    let (traj, _) = learn(env, &mut agent, &DelayDist::None, cfg, seeds, None, ctl, None, NAME)?;
+    Ok((traj.steps_done == cfg.steps).then_some(traj))
 }
 
 /// The learning loop of one trajectory ([`Stepper`] to its end).
@@ -444,5 +466,58 @@ mod tests {
                 assert!(delay.estimated && Some(delay.pmf.len()) == max_delay.map(|k| k + 1));
             }
         }
+    }
+
+    /// `reference = true` runs the grid-optimal agent on the same environment and
+    /// streams, exactly as the benchmark suite runs it through a learner factory; the
+    /// fraction of it is the learner's earned reward ÷ the reference's. On the realistic
+    /// robot the reference earns less than the grid's optimum.
+    #[test]
+    fn the_reference_is_the_grid_optimal_agent_on_the_runs_environment_and_streams() {
+        let world = PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../worlds/paper-9x9.toml"));
+        let stop = AtomicBool::new(false);
+        let ctl = Control { stop: &stop, progress: &|_| {} };
+        for (env, robot, steps) in
+            [(EnvKind::Grid, vec![], 5000), (EnvKind::Robot, vec!["profile=realistic".into()], 400)]
+        {
+            let cfg = RunConfig {
+                world: world.clone(),
+                env,
+                robot,
+                learner: mmq_learn::LearnerSpec::new(mmq_learn::LearnerKind::Q),
+                steps,
+                window: 100,
+                eval_steps: 0,
+                baseline: false,
+                reference: true,
+                save_tables: false,
+                ..RunConfig::default()
+            };
+            let (w, dist) = (cfg.load_world().unwrap(), cfg.validate().unwrap());
+            let r = run_seed(&cfg, &w, &dist, 5, None, ctl, u128::MAX).unwrap();
+            let reference = r.reference.clone().expect("asked for");
+            let optimum = optimum_of(&w);
+            let eps = cfg.learner.params.epsilon;
+            let factory = |ns: usize, na: usize, _seed: u64| {
+                Ok(Box::new(GridOptimal::new(&optimum, eps, ns, na, "w")?) as Box<dyn Learner>)
+            };
+            let plain = RunConfig { reference: false, ..cfg.clone() };
+            let agent =
+                run_seed_as(&plain, &w, &dist, 5, None, ctl, u128::MAX, false, Some(&factory)).unwrap();
+            assert_eq!(reference.earned_total, agent.run.earned_total, "{env:?}");
+            // It earns the same (what it receives depends on the delay it runs under).
+            let earned = |c: &[CurveRow]| c.iter().map(|r| (r.step, r.earned)).collect::<Vec<_>>();
+            assert_eq!(earned(&reference.curve), earned(&agent.run.curve), "{env:?}");
+            assert_eq!(r.fraction_of_reference(), Some(r.run.earned_total / reference.earned_total));
+            let per_step = reference.earned_total / steps as f64;
+            if env == EnvKind::Robot {
+                assert!(per_step < optimum.gain, "{per_step} vs {}", optimum.gain);
+            }
+            assert!(per_step > 0.0);
+        }
+        // The swarm has no reference.
+        let swarm =
+            RunConfig { env: EnvKind::Swarm, delay: "none".into(), reference: true, ..RunConfig::default() };
+        assert!(swarm.validate().unwrap_err().to_string().contains("`reference`"));
     }
 }

@@ -175,6 +175,14 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTree
             b.earned_total / b.steps_done.max(1) as f64 / optimum,
         );
     }
+    if let Some(x) = &r.reference {
+        let per_step = x.earned_total / x.steps_done.max(1) as f64;
+        m.insert("reference/earned_per_step".into(), per_step);
+        m.insert("reference/fraction_of_optimum".into(), per_step / optimum);
+    }
+    if let Some(f) = r.fraction_of_reference() {
+        m.insert("perf/fraction_of_reference".into(), f);
+    }
     if let Some(g) = r.baseline_greedy_per_step {
         m.insert("baseline/eval_greedy_per_step".into(), g);
     }

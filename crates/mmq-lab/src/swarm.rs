@@ -129,6 +129,7 @@ pub(crate) fn run_swarm_seed(
         tables,
         baseline,
         baseline_greedy_per_step: baseline_greedy,
+        reference: None,
         wall_time_s: clock.elapsed().as_secs_f64(),
         learn_time_s: learn_s,
         failure,

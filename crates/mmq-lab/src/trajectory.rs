@@ -122,6 +122,9 @@ pub struct SeedResult {
     pub baseline: Option<Trajectory>,
     /// Baseline greedy evaluation.
     pub baseline_greedy_per_step: Option<f64>,
+    /// The reference `grid-optimal` on the same environment, seed and horizon (when
+    /// asked for: [`crate::config::RunConfig::reference`]).
+    pub reference: Option<Trajectory>,
     /// Wall-clock seconds of this seed.
     pub wall_time_s: f64,
     /// Wall-clock seconds of the learning run alone (no evaluation, no baseline).
@@ -139,6 +142,13 @@ impl SeedResult {
     pub fn relative(&self) -> Option<f64> {
         let b = self.baseline.as_ref()?;
         (b.earned_total > 0.0).then(|| self.run.earned_total / b.earned_total)
+    }
+
+    /// Cumulative earned reward ÷ the reference's: the share of what the environment
+    /// allows. Absent without a reference, and where the reference earned ≤ 0.
+    pub fn fraction_of_reference(&self) -> Option<f64> {
+        let r = self.reference.as_ref()?;
+        (r.earned_total > 0.0).then(|| self.run.earned_total / r.earned_total)
     }
 
     /// Earned reward per step.

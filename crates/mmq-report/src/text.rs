@@ -21,6 +21,8 @@ pub fn run_summary(s: &Summary) -> String {
         ("perf/relative", "relative performance vs undelayed Q", true),
         ("perf/fraction_of_ceiling", "fraction of the ε-soft ceiling", true),
         ("perf/fraction_of_optimum", "fraction of the exact optimum", true),
+        ("perf/fraction_of_reference", "fraction of the grid-optimal reference", true),
+        ("reference/fraction_of_optimum", "the reference, fraction of the optimum", true),
         ("perf/regret", "regret against the optimum (reward)", false),
         ("reward/earned_per_step", "earned reward per step", false),
         ("eval/greedy_per_step", "greedy evaluation, reward per step", false),
