@@ -229,9 +229,13 @@ def test_bad_actions():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="robot_1 waits for an action"):
         env.step({"robot_0": 0})
-    env.reset(seed=0)
     with pytest.raises(ValueError, match="out of range"):
         env.step({"robot_0": 0, "robot_1": 99})
+    with pytest.raises(ValueError, match="out of range"):
+        env.step({"robot_0": True, "robot_1": 0})
+    # A refused call started nothing: both robots still wait.
+    obs, *_ = env.step({"robot_0": np.int64(0), "robot_1": 1})
+    assert obs
     env.reset(seed=0)
     with pytest.raises(ValueError, match="not a live agent"):
         env.step({"robot_0": 0, "robot_1": 0, "robot_7": 0})

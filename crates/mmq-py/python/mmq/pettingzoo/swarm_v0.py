@@ -216,6 +216,7 @@ class SwarmEnv(ParallelEnv):
                 raise ValueError(
                     f"actions: `{a}` is not a live agent; the live agents are {self.agents}"
                 )
+        # Every action is checked before any primitive starts.
         for i in self._waiting:
             a = self.possible_agents[i]
             if a not in actions:
@@ -223,7 +224,12 @@ class SwarmEnv(ParallelEnv):
                     f"actions: {a} waits for an action (it was returned by the last call); "
                     "give one for every agent of the last observations"
                 )
-            self._core.act(i, actions[a])
+            x = actions[a]
+            if isinstance(x, (bool, np.bool_)) or not self._action_spaces[a].contains(x):
+                n = self._action_spaces[a].n
+                raise ValueError(f"actions: {a}'s action {x!r} is out of range; use an integer in 0..{n}")
+        for i in self._waiting:
+            self._core.act(i, actions[self.possible_agents[i]])
         rows = self._core.advance()
         in_flight = self._core.in_flight() if rows else []
         observations: dict[str, int] = {}
