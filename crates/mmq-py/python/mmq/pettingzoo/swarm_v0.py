@@ -22,7 +22,7 @@ from gymnasium import spaces
 
 from mmq import _mmq
 
-__all__ = ["SwarmEnv", "parallel_env"]
+__all__ = ["Flags", "SwarmEnv", "parallel_env"]
 
 
 def parallel_env(**kwargs: Any) -> SwarmEnv:
@@ -32,6 +32,24 @@ def parallel_env(**kwargs: Any) -> SwarmEnv:
 
 def _agent_char(i: int) -> str:
     return "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ*"[min(i, 62)]
+
+
+class Flags(dict):
+    """``terminations`` or ``truncations`` of a step: keyed by the robots whose primitive
+    ended; looking up a live robot that is still moving (absent from the step) reads
+    ``False`` instead of raising ``KeyError``. Any other missing key raises."""
+
+    def __init__(self, moving: frozenset = frozenset()):
+        super().__init__()
+        self.moving = moving
+
+    def __missing__(self, agent):
+        if agent in self.moving:
+            return False
+        raise KeyError(agent)
+
+    def __reduce__(self):
+        return (Flags, (self.moving,), None, None, iter(self.items()))
 
 
 class SwarmEnv(ParallelEnv):
@@ -44,16 +62,20 @@ class SwarmEnv(ParallelEnv):
     **Asynchronous decisions: absent robots.** Primitives take different amounts of
     simulated time, so the robots do not decide together. ``reset`` returns every robot
     (all wait for an action). ``step(actions)`` starts the primitives of the robots that
-    were waiting (those in the observations returned by the previous call), runs the
-    shared physics until at least one primitive ends, and returns **only the robots
-    whose primitive ended** in ``observations``, ``rewards`` and ``infos``: a robot still
-    moving is absent from them, and those returned are exactly the robots that wait for
-    an action in the next ``step``. ``actions`` must hold an action for each of them;
-    an action for a robot that is still moving is ignored (so a loop that acts for
-    every agent in ``env.agents``, as PettingZoo's API test does, works).
-    ``terminations`` and ``truncations`` hold every agent that was alive before the
-    step (``False`` for the moving ones): PettingZoo reads them for every live agent,
-    so that ``agents`` stays the list of robots not yet truncated, moving or not.
+    were waiting (those returned by the previous call), runs the shared physics until at
+    least one primitive ends, and returns five dictionaries keyed by **only the robots
+    whose primitive ended**: a robot still moving is absent from all of them, and those
+    returned are exactly the robots that wait for an action in the next ``step``.
+    ``actions`` must hold an action for each of them (one truncated excepted); an action
+    for a robot that is not waiting (still moving, or truncated) is ignored. ``agents``
+    is the list of robots not yet truncated, moving or not.
+
+    One addition makes PettingZoo's own tools work with absent robots: PettingZoo's API
+    test reads ``terminations[agent]`` and ``truncations[agent]`` for *every* live
+    agent. So these two are :class:`Flags`, dictionaries whose keys are the robots that
+    ended but in which looking up a live robot that is still moving reads ``False`` (it
+    is neither terminated nor truncated) instead of raising ``KeyError``; iteration,
+    ``len``, ``in`` and ``.get`` see only the robots that ended.
 
     **Rewards.** The reward of a robot is the reward *delivered* to it at this decision:
     every non-zero reward a robot earns starts a consultation over the radio
@@ -93,7 +115,7 @@ class SwarmEnv(ParallelEnv):
             world's ``[swarm]`` table, docs/robot.md); ``None`` keeps the world's value
             or the default (``none``, ``k=1``, 1.5 m, ``"wifi"``, 0).
         robot: robot settings: a dict of fields of the world's ``[robot]`` table
-            (``{"profile": "realistic", "noise.slip": 0.02}``) or a list of
+            (``{"profile": "realistic", "noise.slip_probability": 0.02}``) or a list of
             ``KEY=VALUE`` strings (as the CLI's ``--robot``).
         max_steps: decisions per robot before it is truncated (``None``: never).
         render_mode: ``None`` or ``"ansi"`` (the map with robot i as its index).
@@ -210,11 +232,10 @@ class SwarmEnv(ParallelEnv):
         ended (see the class docstring)."""
         if not self.agents:
             return {}, {}, {}, {}, {}
-        alive = set(self.agents)
         for a in actions:
-            if a not in alive:
+            if a not in self._index:
                 raise ValueError(
-                    f"actions: `{a}` is not a live agent; the live agents are {self.agents}"
+                    f"actions: `{a}` is not an agent; the agents are {self.possible_agents}"
                 )
         # Every action is checked before any primitive starts.
         for i in self._waiting:
@@ -235,8 +256,9 @@ class SwarmEnv(ParallelEnv):
         observations: dict[str, int] = {}
         rewards: dict[str, float] = {}
         infos: dict[str, dict[str, Any]] = {}
-        terminations = dict.fromkeys(self.agents, False)
-        truncations = dict.fromkeys(self.agents, False)
+        moving = frozenset(self.agents) - {self.possible_agents[r[0]] for r in rows}
+        terminations = Flags(moving)
+        truncations = Flags(moving)
         waiting = []
         for (i, decision, state, earned, event, time_s, delivered, deliveries, consultation,
              true_state) in rows:
@@ -262,13 +284,15 @@ class SwarmEnv(ParallelEnv):
                 info["true_state"] = true_state
                 info["believed_state"] = state
             infos[a] = info
-            if self.max_steps is not None and self._decisions[i] >= self.max_steps:
-                truncations[a] = True
+            terminations[a] = False
+            done = self.max_steps is not None and self._decisions[i] >= self.max_steps
+            truncations[a] = done
+            if done:
                 self._core.park(i)
             else:
                 waiting.append(i)
         self._waiting = waiting
-        self.agents = [a for a in self.agents if not truncations[a]]
+        self.agents = [a for a in self.agents if not truncations.get(a, False)]
         return observations, rewards, terminations, truncations, infos
 
     def render(self):
