@@ -191,9 +191,13 @@ def test_one_robot_without_consultation_is_robot_v0(profile):
 
 
 def test_robot_settings_as_a_list_equal_a_dict():
-    a = play(swarm_v0.parallel_env(robots=2, robot=["profile=realistic", "noise.slip_probability=0.02"]), 2, 50)
-    b = play(swarm_v0.parallel_env(robots=2, robot={"profile": "realistic", "noise.slip_probability": 0.02}), 2, 50)
+    as_list = ["profile=realistic", "noise.slip_probability=0.2"]
+    as_dict = {"profile": "realistic", "noise.slip_probability": 0.2}
+    a = play(swarm_v0.parallel_env(robots=2, robot=as_list), 2, 50)
+    b = play(swarm_v0.parallel_env(robots=2, robot=as_dict), 2, 50)
     assert a == b
+    c = play(swarm_v0.parallel_env(robots=2, robot={"profile": "realistic"}), 2, 50)
+    assert a != c  # the slip setting reached the robots
 
 
 def test_render_ansi():

@@ -87,7 +87,8 @@ class SwarmEnv(ParallelEnv):
 
     **Episode end.** The task is continuing: no termination. A robot is truncated with
     its ``max_steps``-th decision, parked (it stands still and takes no more actions)
-    and removed from ``agents``; when every robot is done, ``agents`` is empty.
+    and removed from ``agents``; when every robot is done, ``agents`` is empty. Its
+    rewards still in flight are never delivered (its last ``info["in_flight"]``).
 
     **Information.** ``infos[agent]`` of ``step`` (each key one type on every step):
     ``decision`` (int, the robot's decision that ended, from 0), ``emitted`` (float, the
@@ -155,7 +156,8 @@ class SwarmEnv(ParallelEnv):
             or max_steps < 1
         ):
             raise _mmq.ConfigError(
-                f"max_steps: {max_steps!r} is not accepted; use a positive number of decisions or None"
+                f"max_steps: {max_steps!r} is not accepted; "
+                "use a positive number of decisions or None"
             )
         fields = {
             "robots": robots,
@@ -177,7 +179,9 @@ class SwarmEnv(ParallelEnv):
         self._observation_spaces = {
             a: spaces.Discrete(self._core.num_states) for a in self.possible_agents
         }
-        self._action_spaces = {a: spaces.Discrete(self._core.num_actions) for a in self.possible_agents}
+        self._action_spaces = {
+            a: spaces.Discrete(self._core.num_actions) for a in self.possible_agents
+        }
         self.observation_spaces = self._observation_spaces
         self.action_spaces = self._action_spaces
         name, width, height, cell, goal, respawn = self._core.world_facts
@@ -248,7 +252,9 @@ class SwarmEnv(ParallelEnv):
             x = actions[a]
             if isinstance(x, (bool, np.bool_)) or not self._action_spaces[a].contains(x):
                 n = self._action_spaces[a].n
-                raise ValueError(f"actions: {a}'s action {x!r} is out of range; use an integer in 0..{n}")
+                raise ValueError(
+                    f"actions: {a}'s action {x!r} is out of range; use an integer in 0..{n}"
+                )
         for i in self._waiting:
             self._core.act(i, actions[self.possible_agents[i]])
         rows = self._core.advance()
