@@ -113,8 +113,8 @@ class SwarmEnv(ParallelEnv):
         world: a shipped world's name (``mmq.world_names()``) or a world file's path.
         robots: the number of robots (1–64).
         consult, k, radio_range_m, hop_delay, loss: the consultation (the fields of a
-            world's ``[swarm]`` table, docs/robot.md); ``None`` keeps the world's value
-            or the default (``none``, ``k=1``, 1.5 m, ``"wifi"``, 0).
+            world's ``[swarm]`` table, as ``mmq run --swarm``); ``None`` keeps the
+            world's value or the default (``none``, ``k=1``, 1.5 m, ``"wifi"``, 0).
         robot: robot settings: a dict of fields of the world's ``[robot]`` table
             (``{"profile": "realistic", "noise.slip_probability": 0.02}``) or a list of
             ``KEY=VALUE`` strings (as the CLI's ``--robot``).
