@@ -1,6 +1,7 @@
 """``mmq.pettingzoo.swarm_v0``: PettingZoo's parallel API test, seeded determinism,
 asynchronous decisions (robots absent from a step), rewards delayed by the radio
-consultation, one robot equal to ``mmq/Robot-v0``, and bad settings."""
+consultation, one robot equal to ``mmq/Robot-v0``, independent learners from Python
+equal to the CLI's swarm run, and bad settings."""
 
 import pickle
 import warnings
@@ -14,6 +15,7 @@ pytest.importorskip("pettingzoo")
 from pettingzoo.test import parallel_api_test  # noqa: E402
 
 import mmq  # noqa: E402
+from conftest import cli  # noqa: E402
 from mmq.pettingzoo import swarm_v0  # noqa: E402
 
 REALISTIC = {"profile": "realistic"}
@@ -251,3 +253,50 @@ def test_bad_actions():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="not an agent"):
         env.step({"robot_0": 0, "robot_1": 0, "robot_7": 0})
+
+
+def robot_seed(seed: int, i: int) -> int:
+    """mmq_robot::swarm::robot_seed: robot i's master seed (robot 0 has the seed's own)."""
+    if i == 0:
+        return seed
+    return mmq.next_seed(seed ^ mmq.next_seed(0x5377_6172_6D00_0000 ^ i))
+
+
+def test_independent_learners_from_python_equal_the_cli(tmp_path):
+    """The loop of `mmq run --env swarm` (an independent Q-learner per robot, each
+    acting when its primitive ends, parked after its budget) driven from Python through
+    swarm_v0 gives robot 0's Q-table of the CLI bit for bit: the same seed is the same
+    swarm trajectory, consultation and bumps included."""
+    seed, steps = 5, 300
+    swarm = {"robots": 3, "consult": "peers", "k": 1, "radio_range_m": 2.0,
+             "hop_delay": "const:0.5s", "loss": 0.1}
+    settings = {"alpha": 0.1, "gamma": 0.9, "epsilon": 0.2, "q0": 0.0}
+    out = tmp_path / "cli"
+    cli("run", "--world", "worlds/paper-5x5.toml", "--env", "swarm", "--learner", "q",
+        "--steps", str(steps), "--seeds", "1", "--seed", str(seed), "--no-baseline",
+        *[x for k, v in swarm.items() for x in ("--swarm", f"{k}={v}")],
+        *[x for k, v in settings.items() for x in (f"--{k.replace('_', '-')}", str(v))],
+        "-q", "--out", str(out))
+    expected = np.load(out / f"q_seed{seed}.npy")
+
+    env = swarm_v0.parallel_env(world="paper-5x5", max_steps=steps, **swarm)
+    learners = {a: mmq.Learner("q", env.observation_space(a).n, env.action_space(a).n,
+                               seed=robot_seed(seed, i), **settings)
+                for i, a in enumerate(env.possible_agents)}
+    obs, _ = env.reset(seed=seed)
+    state = dict(obs)
+    actions = {a: learners[a].act(s) for a, s in obs.items()}
+    delayed = 0
+    while env.agents:
+        obs, rewards, _, truncs, infos = env.step(actions)
+        for a, s2 in obs.items():
+            learners[a].observe(state[a], actions[a], rewards[a], s2, infos[a]["sim_time_s"])
+            delayed += rewards[a] != infos[a]["emitted"]
+            state[a] = s2
+            if not truncs[a]:
+                actions[a] = learners[a].act(s2)
+    assert delayed > 0
+    q = learners["robot_0"].q
+    assert q.shape == expected.shape
+    assert np.array_equal(q, expected)
+    assert (expected != 0.0).sum() > 10
