@@ -255,11 +255,11 @@ def test_bad_actions():
         env.step({"robot_0": 0, "robot_1": 0, "robot_7": 0})
 
 
-def robot_seed(seed: int, i: int) -> int:
-    """mmq_robot::swarm::robot_seed: robot i's master seed (robot 0 has the seed's own)."""
-    if i == 0:
-        return seed
-    return mmq.next_seed(seed ^ mmq.next_seed(0x5377_6172_6D00_0000 ^ i))
+def test_robot_seed_is_the_swarms():
+    # Robot 0 has the seed's own streams; the others differ (the Rust function's values).
+    assert swarm_v0.robot_seed(7, 0) == 7
+    seeds = {swarm_v0.robot_seed(7, i) for i in range(64)}
+    assert len(seeds) == 64
 
 
 def test_independent_learners_from_python_equal_the_cli(tmp_path):
@@ -281,7 +281,7 @@ def test_independent_learners_from_python_equal_the_cli(tmp_path):
 
     env = swarm_v0.parallel_env(world="paper-5x5", max_steps=steps, **swarm)
     learners = {a: mmq.Learner("q", env.observation_space(a).n, env.action_space(a).n,
-                               seed=robot_seed(seed, i), **settings)
+                               seed=swarm_v0.robot_seed(seed, i), **settings)
                 for i, a in enumerate(env.possible_agents)}
     obs, _ = env.reset(seed=seed)
     state = dict(obs)

@@ -22,12 +22,21 @@ from gymnasium import spaces
 
 from mmq import _mmq
 
-__all__ = ["Flags", "SwarmEnv", "parallel_env"]
+__all__ = ["Flags", "SwarmEnv", "parallel_env", "robot_seed"]
 
 
 def parallel_env(**kwargs: Any) -> SwarmEnv:
     """The swarm as a PettingZoo ``ParallelEnv``; the arguments are :class:`SwarmEnv`'s."""
     return SwarmEnv(**kwargs)
+
+
+def robot_seed(seed: int, i: int) -> int:
+    """The seed of robot ``i``'s learner in the CLI's swarm run of master seed ``seed``
+    (robot 0's is ``seed`` itself): ``mmq.Learner(..., seed=robot_seed(seed, i))``
+    explores as the CLI's learner of robot i does."""
+    if i == 0:
+        return int(seed)
+    return _mmq.next_seed(int(seed) ^ _mmq.next_seed(0x5377_6172_6D00_0000 ^ int(i)))
 
 
 def _agent_char(i: int) -> str:
