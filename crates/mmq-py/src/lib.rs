@@ -1,7 +1,8 @@
 //! mmq-py: the native module `mmq._mmq` behind the Python package `mmq` — environments
 //! behind the delay channel ([`env`](mod@env)), vector environments batched in Rust ([`vector`]),
-//! learners and the lab's runner ([`learn`]), the MCAP reader ([`read`]), and Python
-//! agents on the benchmark suite ([`suite`], [`agent`]).
+//! learners and the lab's runner ([`learn`]), the MCAP reader ([`read`]), the robot
+//! swarm behind PettingZoo ([`swarm`]), and Python agents on the benchmark suite
+//! ([`suite`], [`agent`]).
 //!
 //! The Python package (`python/mmq/`) wraps these in Gymnasium classes; everything that
 //! can fail on user input raises `mmq.ConfigError` (a `ValueError`) naming the keyword
@@ -16,6 +17,7 @@ pub mod env;
 pub mod learn;
 pub mod read;
 pub mod suite;
+pub mod swarm;
 pub mod vector;
 
 use pyo3::prelude::*;
@@ -81,6 +83,7 @@ fn _mmq(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<env::EnvCore>()?;
     m.add_class::<vector::VecCore>()?;
     m.add_class::<learn::LearnerCore>()?;
+    m.add_class::<swarm::SwarmCore>()?;
     m.add_function(wrap_pyfunction!(next_seed, m)?)?;
     m.add_function(wrap_pyfunction!(world_names, m)?)?;
     m.add_function(wrap_pyfunction!(optimum, m)?)?;

@@ -47,8 +47,8 @@ class MmqEnv(gym.Env):
             truncated by the time limit) or ``"carry"`` (the channel is not emptied at a
             reset: they arrive in the next episode at their due step).
         preset, profile, overrides: robot only; set ``preset``, ``profile`` and any field
-            of the world's ``[robot]`` table (``{"max_speed_mps": 0.15, "noise.slip": 0.02}``;
-            dotted keys reach nested tables).
+            of the world's ``[robot]`` table (``{"max_speed_mps": 0.15,
+            "noise.slip_probability": 0.02}``; dotted keys reach nested tables).
         episode_steps: the env's own episode length: at that step it reports
             ``truncated`` itself (as the ``TimeLimit`` of ``gym.make(...,
             max_episode_steps=N)`` does, which the environment cannot see). Needed by
