@@ -112,6 +112,11 @@ fn bridge_sections(
             true,
         ),
         ("perf/relative", "Relative performance (÷ undelayed Q-learning in the same setting, eq. 3)", true),
+        (
+            "perf/fraction_of_reference",
+            "Fraction of the grid-optimal reference (what the environment allows: the grid's optimal policy run on it)",
+            true,
+        ),
         ("eval/greedy_fraction_of_optimum", "Greedy evaluation from S after learning (of optimum)", true),
     ]
     .iter()

@@ -40,6 +40,9 @@ pub(super) struct CellFields {
     /// `KEY=VALUE` overrides of the world's `[swarm]` table (same syntax as `robot`).
     #[serde(skip_serializing_if = "RobotSetting::is_empty")]
     pub(super) swarm: RobotSetting,
+    /// Also run the grid-optimal reference (absent: no; joins the cell only when given).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) reference: Option<bool>,
 }
 
 impl Default for CellFields {
@@ -63,6 +66,7 @@ impl Default for CellFields {
             baseline: d.baseline,
             robot: RobotSetting::default(),
             swarm: RobotSetting::default(),
+            reference: None,
         }
     }
 }
@@ -131,6 +135,7 @@ impl CellFields {
             window: self.window,
             eval_steps: self.eval_steps,
             baseline: self.baseline,
+            reference: self.reference.unwrap_or(false),
             save_tables: false,
             ledger: false,
             robot: self.robot.0.clone(),

@@ -134,7 +134,14 @@ fn axes(src: &Source<'_>, mut g: Given, curve: Option<&Spanned<u64>>) -> Result<
     if let Some(v) = g.fields.remove("swarm") {
         axes.push(Axis::given("swarm".into(), v));
     }
-    debug_assert!(g.fields.is_empty(), "a cell field outside FIELDS, robot and swarm: {:?}", g.fields);
+    if let Some(v) = g.fields.remove("reference") {
+        axes.push(Axis::given("reference".into(), v));
+    }
+    debug_assert!(
+        g.fields.is_empty(),
+        "a cell field outside FIELDS, robot, swarm and reference: {:?}",
+        g.fields
+    );
     let n_fields = axes.len();
     for axis in &mut axes {
         for i in 0..axis.values.len() {

@@ -105,8 +105,9 @@ fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
     let rank = |f: &str| match f {
         "robot" => FIELDS.len(),
         "swarm" => FIELDS.len() + 1,
-        "curve" => FIELDS.len() + 2,
-        f => FIELDS.iter().position(|x| *x == f).unwrap_or(FIELDS.len() + 3),
+        "reference" => FIELDS.len() + 2,
+        "curve" => FIELDS.len() + 3,
+        f => FIELDS.iter().position(|x| *x == f).unwrap_or(FIELDS.len() + 4),
     };
     let mut fields: Vec<String> = Vec::new();
     for p in &products {

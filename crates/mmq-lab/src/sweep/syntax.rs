@@ -205,7 +205,7 @@ impl Given {
         value: Spanned<toml::Value>,
     ) -> Result<(), LabError> {
         let (at, name) = (key.span().start, key.into_inner());
-        let cell_fields = || FIELDS.iter().chain(&["robot", "swarm"]);
+        let cell_fields = || FIELDS.iter().chain(&["robot", "swarm", "reference"]);
         if !cell_fields().any(|f| *f == name) {
             let known: Vec<String> = cell_fields().map(|f| format!("`{f}`")).collect();
             let message =
