@@ -25,6 +25,7 @@ pub mod reader;
 pub mod recorder;
 pub mod render;
 pub mod summary;
+pub mod swarm;
 mod writer;
 
 pub use compare::{Mismatch, compare, compare_prefix};
@@ -36,3 +37,4 @@ pub use recorder::{
 };
 pub use render::{render, render_png, render_svg};
 pub use summary::{LogSummary, summary};
+pub use swarm::{SwarmDelivery, SwarmRecorder, SwarmSetup, SwarmStepIn};
