@@ -141,7 +141,7 @@ fn a_swarm_recording_holds_every_robots_steps_frames_and_links_in_time_order() {
     for s in log.swarm_steps.iter().filter(|s| s.msg.consult == "done") {
         assert!(s.msg.delay_s.is_some_and(|d| d >= 0.0) && s.msg.hops.is_some());
     }
-    let last = log.swarm_steps.iter().filter(|s| s.msg.robot == 0).next_back().unwrap();
+    let last = log.swarm_steps.iter().rfind(|s| s.msg.robot == 0).unwrap();
     let delivered: f64 = log.swarm_steps.iter().filter(|s| s.msg.robot == 0).map(|s| s.msg.delivered).sum();
     assert_eq!(last.msg.delivered_total, delivered);
     // Metadata and attachments.
