@@ -9,12 +9,16 @@
 //! learning events use mmq's own (`mmq.*`). Topics, units and the time base are
 //! documented in `docs/logs.md` and in [`recorder`].
 //!
+//! A swarm's run is recorded by the [`SwarmRecorder`] ([`swarm`]): every robot in one
+//! file, fed by the swarm's own loop.
+//!
 //! The [`live`] view serves the same messages over Foxglove's WebSocket protocol while a
 //! run goes on, and [`live::replay`] serves a recorded file with playback control.
 //!
 //! Architecture invariant: this is the only crate that knows MCAP and the Foxglove
 //! protocol; it knows no learner
-//! and no physics engine (it sees runs only through `mmq_core`'s observer hooks).
+//! and no physics engine (it sees runs only through `mmq_core`'s observer hooks, and a
+//! swarm's as plain `mmq_core` data).
 
 pub mod compare;
 pub mod error;

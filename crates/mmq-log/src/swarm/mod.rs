@@ -87,9 +87,9 @@ const NCH: usize = SWARM_CHANNELS.len();
 /// Seconds of path a trail shows.
 pub const TRAIL_S: f64 = 30.0;
 /// Simulated seconds between two points of a trail (at least a frame apart).
-pub const TRAIL_POINT_S: f64 = 0.5;
+pub const TRAIL_POINT_S: f64 = 1.0;
 /// Simulated seconds between two `/swarm/trails` messages.
-pub const TRAIL_PERIOD_S: f64 = 1.0;
+pub const TRAIL_PERIOD_S: f64 = 2.0;
 /// How long a consultation's links are shown at least, and at most, seconds (in
 /// between: as long as the consultation took).
 pub const LINK_SHOWN_S: (f64, f64) = (1.0, 5.0);
@@ -360,6 +360,18 @@ impl SwarmRecorder {
         }
     }
 
+    /// Robot `robot`'s pose (or estimate) on `/tf`; the writer writes the JSON (as
+    /// serde_json writes [`m::FrameTransform`]).
+    fn transform(&mut self, log_time: u64, robot: usize, estimate: bool, p: &PoseSample) {
+        let Some(w) = self.writer.as_mut() else { return };
+        let tf = self.channel_ids[Ch::Tf as usize];
+        let robot = u32::try_from(robot).unwrap_or(u32::MAX);
+        match w.robot_transform(tf, log_time, robot, estimate, p.x, p.y, p.theta) {
+            Ok(()) => self.counts[Ch::Tf as usize] += 1,
+            Err(e) => self.fail(e),
+        }
+    }
+
     /// The run's start: metadata (`run`: the run's facts and the swarm's; `recorder`),
     /// attachments (`world.toml`, `config.toml`) and the static scenes, at simulated time
     /// `sim_time_s`.
@@ -446,11 +458,11 @@ impl SwarmRecorder {
             let log_time = self.stamp(time_s);
             let ts = m::Time::from_ns(log_time);
             for (i, p) in poses.iter().enumerate().take(run.robots) {
-                self.write(Ch::Tf, log_time, &transform(ts, &scenes::frame(i), p));
+                self.transform(log_time, i, false, p);
                 if run.estimates
                     && let Some(Some(e)) = estimates.get(i)
                 {
-                    self.write(Ch::Tf, log_time, &transform(ts, &scenes::estimate_frame(i), e));
+                    self.transform(log_time, i, true, e);
                 }
             }
             run.frames += 1;
@@ -613,16 +625,6 @@ fn next_after(from: f64, period: f64, now: f64) -> f64 {
         next = from + ((now - from) / period).floor() * period + period;
     }
     next
-}
-
-fn transform(ts: m::Time, child: &str, p: &PoseSample) -> m::FrameTransform {
-    m::FrameTransform {
-        timestamp: ts,
-        parent_frame_id: "world".into(),
-        child_frame_id: child.into(),
-        translation: m::Vector3 { x: p.x, y: p.y, z: 0.0 },
-        rotation: m::Quaternion::yaw(p.theta),
-    }
 }
 
 impl Drop for SwarmRecorder {
