@@ -477,7 +477,7 @@ impl SwarmRecorder {
                 self.next_trail_point_s = next_after(self.next_trail_point_s, TRAIL_POINT_S, time_s);
             }
             if time_s >= self.next_trail_msg_s {
-                let trails = scenes::trails(&run.trails, run.radius, ts);
+                let trails = scenes::trails(&run.trails, ts);
                 self.write(Ch::Trails, log_time, &trails);
                 self.next_trail_msg_s = next_after(self.next_trail_msg_s, TRAIL_PERIOD_S, time_s);
             }

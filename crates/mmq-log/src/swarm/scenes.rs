@@ -115,16 +115,17 @@ pub(super) fn station((x, y): (f64, f64), cell: f64, ts: m::Time) -> m::SceneEnt
     e
 }
 
-/// `/swarm/trails`: each robot's recent positions as a line strip of its colour.
-pub(super) fn trails(trails: &[VecDeque<(f64, f64)>], radius: f64, ts: m::Time) -> m::SceneUpdate {
+/// `/swarm/trails`: each robot's recent positions as a line strip of its colour, 2 px
+/// wide at any zoom.
+pub(super) fn trails(trails: &[VecDeque<(f64, f64)>], ts: m::Time) -> m::SceneUpdate {
     let mut out = m::SceneUpdate::default();
     for (i, t) in trails.iter().enumerate() {
         let mut e = m::SceneEntity::new(ts, "world", &format!("trail{i}"));
         e.lines.push(m::LinePrimitive {
             kind: m::LINE_STRIP,
             pose: m::Pose::default(),
-            thickness: 0.15 * radius,
-            scale_invariant: false,
+            thickness: 2.0,
+            scale_invariant: true,
             points: t.iter().map(|&(x, y)| m::Vector3 { x, y, z: 0.01 }).collect(),
             color: colour(i, 0.7),
             colors: Vec::new(),
