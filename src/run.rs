@@ -76,7 +76,7 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
     if cfg.env == EnvKind::Swarm && a.live.is_some() {
         return Err(crate::input_error(
-            "--live: the live view shows one robot; run the swarm without it".to_string(),
+            "--live: the live view shows one robot; record the swarm (--record) and open the file in Foxglove".to_string(),
         ));
     }
     let world = cfg.load_world()?;

@@ -1,6 +1,6 @@
 //! End-to-end tests of `mmq run --env swarm`: one robot without consultation is the
-//! single robot's run bit for bit, and a swarm's results do not depend on the thread
-//! count.
+//! single robot's run bit for bit, a swarm's results do not depend on the thread
+//! count, and a recorded swarm writes its MCAP file without changing its results.
 
 mod common;
 use common::*;
@@ -150,4 +150,46 @@ fn a_sweep_takes_swarm_settings_as_an_axis_and_reports_the_emerged_delays() {
         assert_eq!(o.status.code(), Some(3), "{body}: {}", text(&o).1);
         assert!(text(&o).1.contains(expect), "{body}: {}", text(&o).1);
     }
+}
+
+#[test]
+fn a_recorded_swarm_writes_its_mcap_file_and_learns_as_unrecorded() {
+    let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let common = [
+        "--steps",
+        "100",
+        "--swarm",
+        "robots=2",
+        "--swarm",
+        "consult=server",
+        "--robot",
+        "profile=realistic",
+        "--eval-steps",
+        "20",
+    ];
+    run(d1.path(), &[&["--env", "swarm"][..], &common].concat());
+    run(d2.path(), &[&["--env", "swarm", "--record", "--record-rate", "5"][..], &common].concat());
+    let ((mut s1, m1), (mut s2, m2)) = (results(d1.path()), results(d2.path()));
+    assert_eq!(s2["config"]["record"]["pose_rate_hz"], 5.0);
+    for s in [&mut s1, &mut s2] {
+        s["config"].as_object_mut().unwrap().remove("record");
+    }
+    assert_eq!((s1, m1), (s2, m2), "recording changed the run");
+    for f in ["q_seed0.npy", "policy.csv"] {
+        assert_eq!(
+            std::fs::read(d1.path().join(f)).unwrap(),
+            std::fs::read(d2.path().join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert!(!d1.path().join("trajectory-seed0.mcap").exists());
+    let log = mmq_log::read_log(d2.path().join("trajectory-seed0.mcap")).unwrap();
+    assert!(log.complete, "{:?}", log.problems);
+    assert_eq!(log.swarm_steps.len(), 200);
+    assert_eq!(log.out_of_order, 0);
+    assert_eq!(log.run_fact("robots"), Some("2"));
+    assert_eq!(log.metadata["end"]["complete"], "true");
+    assert!(log.topics["/tf"].count > 0 && log.topics["/swarm/bodies"].count == 1);
+    let cfg = String::from_utf8_lossy(&log.attachment("config.toml").unwrap().data).into_owned();
+    assert!(cfg.contains("env = \"swarm\""), "{cfg}");
 }

@@ -96,6 +96,36 @@ fn a_recording_cut_by_a_file_size_limit_fails_the_run() {
     no_temporaries(&out);
 }
 
+/// The swarm's recording, cut the same way, fails its seed the same way.
+#[test]
+fn a_swarms_recording_cut_by_a_file_size_limit_fails_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = mmq_with_size_limit(
+        400,
+        &[
+            "run",
+            "--env",
+            "swarm",
+            "--swarm",
+            "robots=3",
+            "--steps",
+            "3000",
+            "--no-baseline",
+            "--record",
+            "-q",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    let (code, err) = code_and_err(&o);
+    assert_eq!(code, Some(1), "exit code; stderr: {err}");
+    assert!(err.contains("trajectory-seed0.mcap"), "the file is named: {err}");
+    assert_eq!(err.lines().filter(|l| l.starts_with("error:")).count(), 1, "one message: {err}");
+    summary_not_complete(&out);
+    no_temporaries(&out);
+}
+
 #[test]
 fn outputs_cut_by_a_file_size_limit_fail_the_run() {
     // 100 KiB: the config and the CSVs fit, the 9×9 MMQ Q-table (129 KiB) does not.

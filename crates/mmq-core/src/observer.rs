@@ -162,4 +162,11 @@ pub trait Observer {
     fn error(&self) -> Option<String> {
         None
     }
+    /// An observer that is fed by something other than the single environment's step
+    /// loop (the swarm's recorder, which sees every robot) hands itself over to whoever
+    /// drives it, which takes it back as its own type (`Box<dyn Any>::downcast`). The step
+    /// loop's observers keep the default: `None`.
+    fn into_any(self: Box<Self>) -> Option<Box<dyn std::any::Any + Send>> {
+        None
+    }
 }

@@ -82,6 +82,11 @@ pub struct RunConfig {
     pub swarm: Vec<String>,
 }
 
+/// Highest frame rate of a swarm recording, frames per second of simulated time: each
+/// frame writes a transform per robot (two on the realistic profile), so every physics
+/// step of 16 robots would be tens of thousands of messages per simulated second.
+pub const MAX_SWARM_POSE_RATE_HZ: f64 = 100.0;
+
 /// What `--record` writes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -166,12 +171,26 @@ impl RunConfig {
                 "the swarm's delays emerge from its consultation (`swarm.consult`); use delay none",
             ));
         }
-        if self.env == EnvKind::Swarm && self.record.is_some() {
-            return Err(LabError::param(
-                "record",
-                "on",
-                "recordings and the live view show one robot; run the swarm without them",
-            ));
+        if self.env == EnvKind::Swarm
+            && let Some(r) = &self.record
+        {
+            if let Some((field, n)) =
+                r.first.map(|n| ("record.first", n)).or(r.last.map(|n| ("record.last", n)))
+            {
+                return Err(LabError::param(
+                    field,
+                    n,
+                    "the swarm's recordings hold every step; leave out the recording window",
+                ));
+            }
+            if !(r.pose_rate_hz > 0.0 && r.pose_rate_hz <= MAX_SWARM_POSE_RATE_HZ) {
+                return Err(LabError::param(
+                    "record.pose_rate_hz",
+                    r.pose_rate_hz,
+                    "the swarm records frames of every robot at 0 < rate <= 100 per second \
+                     (every physics step would be too many)",
+                ));
+            }
         }
         if self.env == EnvKind::Swarm && self.reference {
             return Err(LabError::param(

@@ -24,6 +24,7 @@ pub mod stepper;
 pub mod suite;
 pub mod summary;
 pub mod swarm;
+mod swarm_record;
 pub mod sweep;
 pub mod trajectory;
 

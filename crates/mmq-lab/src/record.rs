@@ -6,9 +6,11 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_core::Observer;
-use mmq_log::{LiveConfig, LiveServer, LiveTap, LogError, McapRecorder, RecorderConfig, StepWindow};
+use mmq_log::{
+    LiveConfig, LiveServer, LiveTap, LogError, McapRecorder, RecorderConfig, StepWindow, SwarmRecorder,
+};
 
-use crate::config::RunConfig;
+use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
 
 /// The MCAP file of one seed in an output folder.
@@ -36,14 +38,27 @@ pub fn open(rc: RecorderConfig) -> Result<Box<dyn Observer + Send>, LabError> {
     Ok(Box::new(rec))
 }
 
-/// A factory for `run_all`: one recorder per seed in `out` when `cfg` records.
+/// Opens the swarm's recorder (every robot in one file), which the swarm's seed takes
+/// back from its observer and feeds itself.
+pub fn open_swarm(rc: RecorderConfig) -> Result<Box<dyn Observer + Send>, LabError> {
+    let path = rc.path.clone();
+    let rec = SwarmRecorder::create(rc)
+        .map_err(|e| LabError::Io { path, source: std::io::Error::other(e.to_string()) })?;
+    Ok(Box::new(rec))
+}
+
+/// A factory for `run_all`: one recorder per seed in `out` when `cfg` records (the
+/// swarm's for a swarm).
 pub fn recorder_factory(
     cfg: &RunConfig,
     out: &Path,
 ) -> impl Fn(u64) -> Result<Option<Box<dyn Observer + Send>>, LabError> + Sync + use<> {
     let cfg = cfg.clone();
     let out = out.to_path_buf();
-    move |seed| recorder_config(&cfg, trajectory_path(&out, seed)).map(open).transpose()
+    move |seed| {
+        let rc = recorder_config(&cfg, trajectory_path(&out, seed));
+        if cfg.env == EnvKind::Swarm { rc.map(open_swarm).transpose() } else { rc.map(open).transpose() }
+    }
 }
 
 /// A run served live to the Foxglove app: the server and the tap of the one seed it
@@ -274,6 +289,11 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> 
         .ok_or_else(|| bad("the log's run metadata has no numeric `seed`".into()))?;
     if cfg.record.is_none() {
         return Err(bad("the log's config has no [record] settings".into()));
+    }
+    if cfg.env == EnvKind::Swarm {
+        return Err(bad(
+            "a swarm's recording cannot be verified by a re-run; only a single robot's or grid's can".into(),
+        ));
     }
     // The learner's own run is what the log holds; the baseline and tables are not needed.
     cfg.baseline = false;

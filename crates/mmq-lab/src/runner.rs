@@ -133,14 +133,11 @@ pub(crate) fn run_seed_as(
             })
         }
         EnvKind::Swarm => {
-            if observer.is_some() {
-                return Err(LabError::param(
-                    "record",
-                    "on",
-                    "recordings and the live view show one robot; run the swarm without them",
-                ));
-            }
-            crate::swarm::run_swarm_seed(cfg, world, seed, ctl, mem_limit, own_baseline, learner)
+            // The swarm's recorder comes as the seed's observer; its loop feeds it.
+            let rec = observer
+                .map(|o| crate::swarm_record::Recording::new(o, run_facts(cfg, world)))
+                .transpose()?;
+            crate::swarm::run_swarm_seed(cfg, world, seed, ctl, mem_limit, own_baseline, learner, rec)
         }
     }
 }

@@ -8,6 +8,10 @@
 //! (events, visits, delivered delays) are the swarm's totals. Each robot's own figures
 //! and the delays that emerged are in the environment figures under `swarm/`.
 //!
+//! Recorded (`record`), the learning is written to the seed's MCAP file as it goes
+//! ([`crate::swarm_record`]): frames of every robot's pose at the recording's rate and
+//! every robot's step; the greedy evaluation and the baseline are not recorded.
+//!
 //! Streams: robot 0 uses the seed's own streams, so one robot without consultation is
 //! the single robot's run bit for bit; robot `i` uses those of
 //! [`mmq_robot::swarm::robot_seed`]`(seed, i)`. The radio draws from the seed's delay
@@ -24,6 +28,7 @@ use mmq_robot::{RobotConfig, RobotEnv};
 
 use crate::config::RunConfig;
 use crate::error::LabError;
+use crate::swarm_record::Recording;
 use crate::trajectory::{Control, CurveRow, LearnerFactory, SeedResult, Trajectory, policy_of};
 
 /// The swarm of `world` (its `[robot]` and `[swarm]` tables) with `overrides` of its
@@ -47,6 +52,9 @@ struct Seat {
     rng: Rng,
     s: State,
     a: Action,
+    /// How the learner chose `a` (for the recording).
+    model: Option<usize>,
+    explored: bool,
     traj: Trajectory,
     window_left: u64,
     w_earned: f64,
@@ -54,8 +62,10 @@ struct Seat {
     truth: Truth,
 }
 
-/// One seed of `cfg` on the swarm of `world` (see the module's doc); the baseline, if
-/// `own_baseline`, is undelayed Q-learning on the same swarm without consultation.
+/// One seed of `cfg` on the swarm of `world` (see the module's doc), its learning
+/// written to `rec` when given; the baseline, if `own_baseline`, is undelayed Q-learning
+/// on the same swarm without consultation.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn run_swarm_seed(
     cfg: &RunConfig,
     world: &World,
@@ -64,6 +74,7 @@ pub(crate) fn run_swarm_seed(
     mem_limit: u128,
     own_baseline: bool,
     factory: Option<&LearnerFactory<'_>>,
+    mut rec: Option<Recording>,
 ) -> Result<SeedResult, LabError> {
     let clock = Instant::now();
     let mut env = swarm_env_with(world, &cfg.swarm)?;
@@ -82,6 +93,8 @@ pub(crate) fn run_swarm_seed(
             rng,
             s: 0,
             a: 0,
+            model: None,
+            explored: false,
             traj,
             window_left: cfg.window,
             w_earned: 0.0,
@@ -90,22 +103,29 @@ pub(crate) fn run_swarm_seed(
         });
     }
     let learn_clock = Instant::now();
-    learn(&mut env, &mut seats, cfg, seed, ctl)?;
+    if let Some(r) = &rec {
+        r.trace(&mut env);
+    }
+    let learned = learn(&mut env, &mut seats, cfg, world, seed, ctl, rec.as_mut());
+    let complete = learned.is_ok() && seats.iter().all(|s| s.traj.steps_done == cfg.steps);
+    // The file is finished on every way out; a write that failed fails the seed.
+    let rec_failure = rec.take().and_then(|r| r.finish(complete));
+    learned?;
+    env.set_trace(None);
     let learn_s = learn_clock.elapsed().as_secs_f64();
     let mut env_stats = swarm_stats(&env, &seats);
-    let complete = seats.iter().all(|s| s.traj.steps_done == cfg.steps);
     let eval_steps = if complete { cfg.eval_steps } else { 0 };
     let (greedy_per_step, greedy_path) = evaluate(&mut env, &mut seats, eval_steps, seed)?;
     let stopped = || ctl.stop.load(Ordering::Relaxed);
     let maps_env =
         RobotEnv::new(world, env.config().clone()).map_err(|e| LabError::EnvBuild(e.to_string()))?;
     let (policy_arrows, policy_probs, values, whole) = policy_of(&maps_env, &*seats[0].learner, &stopped);
-    let failure = seats.iter().find_map(|s| s.learner.failure());
+    let failure = seats.iter().find_map(|s| s.learner.failure()).or(rec_failure);
     let complete = complete && whole && failure.is_none();
     let (mut baseline, mut baseline_greedy) = (None, None);
     if own_baseline && complete {
         let base_cfg = cfg.baseline_run();
-        let b = run_swarm_seed(&base_cfg, world, seed, ctl, mem_limit, false, None)?;
+        let b = run_swarm_seed(&base_cfg, world, seed, ctl, mem_limit, false, None, None)?;
         if b.complete {
             baseline_greedy = Some(b.greedy_per_step);
             baseline = Some(b.run);
@@ -137,17 +157,22 @@ pub(crate) fn run_swarm_seed(
 }
 
 /// The learning of every robot until each has made `cfg.steps` decisions, the stop
-/// flag is set or a learner fails.
+/// flag is set, a learner fails or the recording `rec` cannot be written.
 fn learn(
     env: &mut SwarmEnv,
     seats: &mut [Seat],
     cfg: &RunConfig,
+    world: &World,
     seed: u64,
     ctl: Control<'_>,
+    mut rec: Option<&mut Recording>,
 ) -> Result<(), LabError> {
     let seeds = SeedTree::new(seed);
     let env_err = |source| LabError::Env { seed, source };
     let states = env.reset(seeds.seed(Stream::Env), seeds.seed(Stream::Delay)).map_err(env_err)?;
+    if let Some(r) = rec.as_deref_mut() {
+        r.start(env, cfg, world, seed)?;
+    }
     for (i, seat) in seats.iter_mut().enumerate() {
         seat.s = states[i];
         start_decision(env, i, seat, cfg.steps).map_err(env_err)?;
@@ -161,11 +186,17 @@ fn learn(
         }
         out.clear();
         env.advance(&mut out).map_err(env_err)?;
+        if let Some(r) = rec.as_deref_mut() {
+            r.frames(env);
+        }
         if out.is_empty() {
             break;
         }
         for st in &out {
             let seat = &mut seats[st.robot];
+            if let Some(r) = rec.as_deref_mut() {
+                r.step(st, seat.s, seat.a, seat.model, seat.explored);
+            }
             observe(seat, st, cfg.window);
             decisions += 1;
             start_decision(env, st.robot, seat, cfg.steps).map_err(env_err)?;
@@ -174,6 +205,10 @@ fn learn(
         if decisions / n >= reported + 1024 {
             (ctl.progress)(decisions / n - reported);
             reported = decisions / n;
+            // A recording that cannot be written stops the seed (it fails at its end).
+            if rec.as_deref().is_some_and(|r| r.error().is_some()) {
+                break;
+            }
         }
     }
     (ctl.progress)((decisions / n).saturating_sub(reported));
@@ -197,6 +232,8 @@ fn start_decision(
     }
     let d = seat.learner.act(seat.s, &mut seat.rng);
     seat.a = d.action;
+    seat.model = d.model;
+    seat.explored = d.explored;
     env.act(i, d.action)
 }
 

@@ -9,12 +9,16 @@
 //! learning events use mmq's own (`mmq.*`). Topics, units and the time base are
 //! documented in `docs/logs.md` and in [`recorder`].
 //!
+//! A swarm's run is recorded by the [`SwarmRecorder`] ([`swarm`]): every robot in one
+//! file, fed by the swarm's own loop.
+//!
 //! The [`live`] view serves the same messages over Foxglove's WebSocket protocol while a
 //! run goes on, and [`live::replay`] serves a recorded file with playback control.
 //!
 //! Architecture invariant: this is the only crate that knows MCAP and the Foxglove
 //! protocol; it knows no learner
-//! and no physics engine (it sees runs only through `mmq_core`'s observer hooks).
+//! and no physics engine (it sees runs only through `mmq_core`'s observer hooks, and a
+//! swarm's as plain `mmq_core` data).
 
 pub mod compare;
 pub mod error;
@@ -25,6 +29,7 @@ pub mod reader;
 pub mod recorder;
 pub mod render;
 pub mod summary;
+pub mod swarm;
 mod writer;
 
 pub use compare::{Mismatch, compare, compare_prefix};
@@ -36,3 +41,4 @@ pub use recorder::{
 };
 pub use render::{render, render_png, render_svg};
 pub use summary::{LogSummary, summary};
+pub use swarm::{SwarmDelivery, SwarmRecorder, SwarmSetup, SwarmStepIn};

@@ -284,6 +284,8 @@ pub struct CylinderPrimitive {
 
 /// `foxglove.LineType`: 0 = LINE_STRIP, 1 = LINE_LOOP, 2 = LINE_LIST.
 pub type LineType = u8;
+/// One line through every point in order.
+pub const LINE_STRIP: LineType = 0;
 /// Individual segments 0-1, 2-3, ...
 pub const LINE_LIST: LineType = 2;
 

@@ -132,8 +132,13 @@ pub struct LogContents {
     pub last_visits: Option<Stamped<m::Grid>>,
     /// The last `/rl/heatmap/value` grid.
     pub last_value: Option<Stamped<m::Grid>>,
+    /// `/swarm/step` (a swarm's recording: every robot's steps).
+    pub swarm_steps: Vec<Stamped<crate::swarm::SwarmStepMsg>>,
     /// Messages read, all topics.
     pub messages: u64,
+    /// Messages whose log time is earlier than the message read before them (0 in a
+    /// file written in log-time order, as the recorders write).
+    pub out_of_order: u64,
     /// The file was read to its end magic, and what was read agrees with the file's own
     /// statistics (no [`LogContents::problems`]).
     pub complete: bool,
@@ -226,6 +231,8 @@ struct State {
     stats: Option<mcap::records::Statistics>,
     /// Chunks skipped as damaged, as problems.
     damaged: Vec<String>,
+    /// The log time of the last message read.
+    last_log_time: u64,
 }
 
 impl State {
@@ -331,6 +338,10 @@ impl State {
         info.count += 1;
         info.last_ns = h.log_time;
         info.digest = digest_message(info.digest, h.log_time, data);
+        if h.log_time < self.last_log_time {
+            out.out_of_order += 1;
+        }
+        self.last_log_time = h.log_time;
         out.messages += 1;
         let t = h.log_time;
         fn push<T: DeserializeOwned>(v: &mut Vec<Stamped<T>>, t: u64, data: &[u8]) -> bool {
@@ -343,6 +354,7 @@ impl State {
             topics::TELEPORT => push(&mut out.teleports, t, data),
             topics::CONTACT => push(&mut out.contacts, t, data),
             topics::LOG => push(&mut out.notes, t, data),
+            crate::swarm::topics::STEP => push(&mut out.swarm_steps, t, data),
             topics::POSE => serde_json::from_slice::<m::PoseInFrame>(data)
                 .map(|p| {
                     let q = p.pose.orientation;

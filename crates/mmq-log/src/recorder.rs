@@ -64,6 +64,8 @@ use crate::writer::{Failure, LogWriter};
 mod observe;
 mod scenes;
 
+pub(crate) use scenes::{arena_scene, robot_radius};
+
 /// Which steps are recorded: the first `first` steps and the last `last` steps of a run
 /// of `total` steps (everything else is skipped, except heat maps and the running reward
 /// totals, which stay exact). Steps are counted from 0.

@@ -53,6 +53,9 @@ enum Item {
     /// A pose: `foxglove.FrameTransform` world → robot on channel `tf`, then
     /// `foxglove.PoseInFrame` in frame world on channel `pose`, both at `log_time`.
     Pose { tf: u16, pose: u16, log_time: u64, x: f64, y: f64, theta: f64 },
+    /// A swarm robot's pose: `foxglove.FrameTransform` world → `robot<robot>` (or
+    /// `robot<robot>_estimate`) on channel `tf`.
+    Transform { tf: u16, log_time: u64, robot: u32, estimate: bool, x: f64, y: f64, theta: f64 },
 }
 
 /// Messages in the order written.
@@ -128,6 +131,13 @@ impl<W: Write> Sink<W> {
                 Item::Json { channel, log_time, end } => {
                     self.message(channel, log_time, |out| out.extend_from_slice(&b.bytes[from..end]))?;
                     from = end;
+                }
+                Item::Transform { tf, log_time, robot, estimate, x, y, theta } => {
+                    let mut p = std::mem::take(&mut self.pose);
+                    p.set(log_time, x, y, theta);
+                    let r = self.message(tf, log_time, |out| p.robot_transform(out, robot, estimate));
+                    self.pose = p;
+                    r?;
                 }
                 Item::Pose { tf, pose, log_time, x, y, theta } => {
                     let mut p = std::mem::take(&mut self.pose);
@@ -308,6 +318,22 @@ impl<W: Write + Send + 'static> LogWriter<W> {
         theta: f64,
     ) -> Result<(), Failure> {
         self.push(Item::Pose { tf, pose, log_time, x, y, theta })
+    }
+
+    /// Writes a swarm robot's pose (see [`PoseJson::robot_transform`]) on channel `tf`;
+    /// the JSON is written by the sink.
+    #[allow(clippy::too_many_arguments)]
+    pub fn robot_transform(
+        &mut self,
+        tf: u16,
+        log_time: u64,
+        robot: u32,
+        estimate: bool,
+        x: f64,
+        y: f64,
+        theta: f64,
+    ) -> Result<(), Failure> {
+        self.push(Item::Transform { tf, log_time, robot, estimate, x, y, theta })
     }
 
     fn push(&mut self, item: Item) -> Result<(), Failure> {
@@ -495,6 +521,23 @@ impl PoseJson {
         out.push(b'}');
     }
 
+    /// `foxglove.FrameTransform`, world → `robot<robot>` (`robot<robot>_estimate` when
+    /// `estimate`): a swarm robot's frame.
+    pub(crate) fn robot_transform(&self, out: &mut Vec<u8>, robot: u32, estimate: bool) {
+        out.push(b'{');
+        out.extend_from_slice(&self.time);
+        out.extend_from_slice(b",\"parent_frame_id\":\"world\",\"child_frame_id\":\"robot");
+        out.extend_from_slice(itoa::Buffer::new().format(robot).as_bytes());
+        if estimate {
+            out.extend_from_slice(b"_estimate");
+        }
+        out.extend_from_slice(b"\",\"translation\":");
+        out.extend_from_slice(&self.position);
+        out.extend_from_slice(b",\"rotation\":");
+        out.extend_from_slice(&self.orientation);
+        out.push(b'}');
+    }
+
     /// `foxglove.PoseInFrame` in frame world.
     pub(crate) fn pose_in_frame(&self, out: &mut Vec<u8>) {
         out.push(b'{');
@@ -597,6 +640,12 @@ mod tests {
                 pose: m::Pose::planar(x, y, 0.0, th),
             };
             assert_eq!(String::from_utf8(got).unwrap(), serde_json::to_string(&pose).unwrap());
+            let (robot, estimate) = ((i % 17) as u32, i % 2 == 0);
+            let mut got = Vec::new();
+            p.robot_transform(&mut got, robot, estimate);
+            let child = format!("robot{robot}{}", if estimate { "_estimate" } else { "" });
+            let tf = m::FrameTransform { child_frame_id: child, ..tf };
+            assert_eq!(String::from_utf8(got).unwrap(), serde_json::to_string(&tf).unwrap());
         }
     }
 

@@ -6,7 +6,7 @@ use mmq_core::{RunInfo, World};
 
 use crate::messages as m;
 
-pub(super) fn robot_radius(info: &RunInfo<'_>) -> f64 {
+pub(crate) fn robot_radius(info: &RunInfo<'_>) -> f64 {
     let from_facts = info
         .facts
         .iter()

@@ -11,4 +11,5 @@ mod roundtrip;
 mod schemas;
 mod served;
 mod stalled;
+mod swarm;
 mod truncation;

@@ -55,6 +55,9 @@ pub struct SwarmStep {
     /// messages over, for drawing; robots are nodes `0..robots`, the base station is
     /// node `robots`. Empty without a consultation.
     pub links: Vec<(u32, u32)>,
+    /// Where the nodes of `links` were when the consultation was routed, metres: every
+    /// robot in order, then the base station if there is one. Empty without links.
+    pub nodes: Vec<(f64, f64)>,
 }
 
 impl SwarmStep {
@@ -150,6 +153,7 @@ impl Post {
     ) -> SwarmStep {
         let mut consultation = None;
         let mut links = Vec::new();
+        let mut nodes = Vec::new();
         if step.reward != 0.0 {
             let d = &mut self.delays[robot];
             d.emitted += 1;
@@ -158,6 +162,12 @@ impl Post {
                 Some(model) => {
                     let c = self.network.consult(model, robot, positions, &mut self.rng);
                     links = c.links;
+                    if !links.is_empty() {
+                        nodes.extend_from_slice(positions);
+                        if let ConsultModel::Server { x, y } = model {
+                            nodes.push((*x, *y));
+                        }
+                    }
                     (c.delay_s, c.hops)
                 }
             };
@@ -182,7 +192,7 @@ impl Post {
             }
         }
         self.delays[robot].delivered += deliveries.len() as u64;
-        SwarmStep { robot, decision, step, time_s: now, delivered, deliveries, consultation, links }
+        SwarmStep { robot, decision, step, time_s: now, delivered, deliveries, consultation, links, nodes }
     }
 
     pub fn delays(&self) -> &[RobotDelays] {

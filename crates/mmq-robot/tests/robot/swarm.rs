@@ -209,4 +209,13 @@ fn frames_sample_every_robot_at_the_trace_rate_and_consultations_name_their_link
         );
     }
     assert!(steps.iter().filter(|s| s.consultation.is_none()).all(|s| s.links.is_empty()));
+    // Links come with where their nodes were: the three robots, then the station.
+    let station = world.cell_center(world.respawn);
+    for s in &steps {
+        if s.links.is_empty() {
+            assert!(s.nodes.is_empty());
+        } else {
+            assert_eq!((s.nodes.len(), s.nodes[3]), (4, station));
+        }
+    }
 }
