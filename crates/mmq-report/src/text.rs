@@ -14,8 +14,20 @@ pub fn run_summary(s: &Summary) -> String {
     let ceiling = s.ceiling_per_step.map_or(String::new(), |c| format!(", ε-soft ceiling {c:.4}/step"));
     let _ = writeln!(
         t,
-        "{} on {} (optimum {:.4}/step{ceiling}), delay {}, {} steps × {} seeds",
-        s.learner, s.world, s.optimum_per_step, s.config.delay, s.config.steps, s.config.seeds
+        "{} on {} (optimum {:.4}/step{ceiling}), {}, {} steps × {} seeds",
+        s.learner,
+        s.world,
+        s.optimum_per_step,
+        if s.config.env == mmq_lab::config::EnvKind::Swarm {
+            match s.config.swarm.as_slice() {
+                [] => "swarm as the world's [swarm] table sets it".to_string(),
+                over => format!("swarm {}", over.join(" ")),
+            }
+        } else {
+            format!("delay {}", s.config.delay)
+        },
+        s.config.steps,
+        s.config.seeds
     );
     for (key, label, pct) in [
         ("perf/relative", "relative performance vs undelayed Q", true),
@@ -29,6 +41,10 @@ pub fn run_summary(s: &Summary) -> String {
         ("baseline/earned_per_step", "undelayed Q-learning, reward per step", false),
         ("delay/delivered_mean_steps", "mean delay delivered, steps", false),
         ("delay/delivered_mean_s", "mean delay delivered, seconds", false),
+        ("env/swarm/delay_mean_s", "swarm: consultation delay, seconds", false),
+        ("env/swarm/hops_mean", "swarm: hops of the completing reply", false),
+        ("env/swarm/lost_share", "swarm: rewards lost (never delivered)", true),
+        ("env/swarm/robot_bumps", "swarm: bumps into other robots", false),
     ] {
         if let Some(m) = s.get(key) {
             let text = if key == "perf/regret" { format::mean_num(&m, 1) } else { format::mean(&m, pct) };
