@@ -9,8 +9,8 @@
 //! and the delays that emerged are in the environment figures under `swarm/`.
 //!
 //! Recorded (`record`), the learning is written to the seed's MCAP file as it goes
-//! ([`crate::swarm_record`]): frames of every robot's pose at the recording's rate and
-//! every robot's step; the greedy evaluation and the baseline are not recorded.
+//! (the private module `swarm_record`): frames of every robot's pose at the recording's
+//! rate and every robot's step; the greedy evaluation and the baseline are not recorded.
 //!
 //! Streams: robot 0 uses the seed's own streams, so one robot without consultation is
 //! the single robot's run bit for bit; robot `i` uses those of
