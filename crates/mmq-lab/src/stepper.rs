@@ -381,7 +381,7 @@ fn sample_diagnostics(traj: &mut Trajectory, learner: &dyn Learner, step: u64) {
     }
 }
 
-fn event_index(e: Event) -> usize {
+pub(crate) fn event_index(e: Event) -> usize {
     match e {
         Event::Moved => 0,
         Event::WallBump => 1,

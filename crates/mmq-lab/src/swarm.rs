@@ -21,13 +21,14 @@ use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use mmq_core::channel::DelayStats;
-use mmq_core::{Action, Event, Rng, SeedTree, Start, State, Stream, World};
+use mmq_core::{Action, Rng, SeedTree, Start, State, Stream, World};
 use mmq_learn::{Experience, Learner, Truth};
 use mmq_robot::swarm::{RobotDelays, SwarmConfig, SwarmEnv, SwarmStep, robot_seed};
 use mmq_robot::{RobotConfig, RobotEnv};
 
 use crate::config::RunConfig;
 use crate::error::LabError;
+use crate::stepper::event_index;
 use crate::swarm_record::Recording;
 use crate::trajectory::{Control, CurveRow, LearnerFactory, SeedResult, Trajectory, policy_of};
 
@@ -295,15 +296,6 @@ fn push_row(seat: &mut Seat) {
 fn close_curve(seat: &mut Seat, window: u64) {
     if !seat.traj.steps_done.is_multiple_of(window) {
         push_row(seat);
-    }
-}
-
-fn event_index(e: Event) -> usize {
-    match e {
-        Event::Moved => 0,
-        Event::WallBump => 1,
-        Event::Teleport => 2,
-        Event::TimedOut => 3,
     }
 }
 

@@ -215,19 +215,6 @@ impl SwarmConfig {
         }
         Ok(SwarmConfig { robots, starts, bump_penalty, consult, radio_range_m, hop_delay, loss })
     }
-
-    /// The configuration of one robot and no consultation (the single robot).
-    pub fn single() -> SwarmConfig {
-        SwarmConfig {
-            robots: 1,
-            starts: Starts::Random,
-            bump_penalty: -1.0,
-            consult: Consult::None,
-            radio_range_m: 1.5,
-            hop_delay: SecondsDist::Wifi,
-            loss: 0.0,
-        }
-    }
 }
 
 /// A 1-based `[row, col]` as a free, non-goal cell of `world`.

@@ -70,17 +70,16 @@ impl SwarmEnv {
         let pred = params.prediction_distance() as f64;
         let dt = self.cfg.dt_s;
         let r2 = 2.0 * self.cfg.radius_m;
-        let bodies: Vec<(f64, f64, f64)> = self
-            .members
-            .iter()
-            .map(|m| {
-                let rb = &self.phys.bodies[m.body];
-                let t = rb.translation();
-                (t.x as f64, t.y as f64, rb.linvel().length() as f64 * dt)
-            })
-            .collect();
-        for (i, &(xi, yi, ti)) in bodies.iter().enumerate() {
-            for &(xj, yj, tj) in &bodies[i + 1..] {
+        // Position and travel this step of robot `m` (no allocation: this runs every step).
+        let at = |m: &Member| {
+            let rb = &self.phys.bodies[m.body];
+            let t = rb.translation();
+            (t.x as f64, t.y as f64, rb.linvel().length() as f64 * dt)
+        };
+        for (i, a) in self.members.iter().enumerate() {
+            let (xi, yi, ti) = at(a);
+            for b in &self.members[i + 1..] {
+                let (xj, yj, tj) = at(b);
                 let gap = libm::hypot(xi - xj, yi - yj) - r2;
                 if gap <= pred + 2.0 * (ti + tj) + FREE_FLIGHT_MARGIN_M {
                     return false;
