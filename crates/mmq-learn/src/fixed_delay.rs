@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
 use crate::learner::{Experience, Learner};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::policy::greedy_value;
 use crate::table::{QTable, q_table_methods};
@@ -78,6 +79,15 @@ impl Learner for FixedDelayQ {
     }
 
     q_table_methods!(q, tables, act(p, model = lambda_hat));
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let n = self.history.len();
+        other.swap_with(&mut self.history, || vec![(0, 0, 0); n]);
+    }
 
     fn diagnostics(&self) -> Diagnostics {
         Diagnostics {

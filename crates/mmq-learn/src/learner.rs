@@ -5,6 +5,7 @@
 use mmq_core::{Action, Rng, State};
 
 use crate::diagnostics::Diagnostics;
+use crate::memory::Memory;
 
 /// What the learner decided in a state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,6 +84,19 @@ pub trait Learner: Send + std::fmt::Debug {
     }
     /// Starts a new run: clears memories of past steps (tables are kept).
     fn reset_history(&mut self) {}
+    /// Whether several trajectories can learn into this learner's tables, each with its
+    /// own memory of past steps ([`Self::swap_memory`]; parameter sharing). False for a
+    /// learner whose statistics are built from one trajectory's consecutive steps.
+    fn shares_tables(&self) -> bool {
+        false
+    }
+    /// Exchanges the learner's memory of the current trajectory (what
+    /// [`Self::reset_history`] clears) with `other`, another trajectory's (empty: one
+    /// that has not started). Tables and estimates stay. Does nothing when
+    /// [`Self::shares_tables`] is false.
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let _ = other;
+    }
     /// Why the learner cannot go on, if it cannot: an agent from outside mmq (a Python
     /// object, say) that raised or answered with an action out of range. The runner checks
     /// it before every step and ends the seed as failed with this text. mmq's own learners

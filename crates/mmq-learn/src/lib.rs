@@ -18,7 +18,8 @@
 //! exploration randomness comes in from the caller's stream.
 //!
 //! Shared by every learner: the core types ([`learner`]: [`Learner`], [`Decision`],
-//! [`Experience`], [`Table`]), the shared parameters ([`params`]), the delay estimate a
+//! [`Experience`], [`Table`]), one trajectory's memory for parameter sharing
+//! ([`memory`]), the shared parameters ([`params`]), the delay estimate a
 //! learner reports ([`diagnostics`], [`pmf`]) and tabular helpers ([`table`], [`policy`]).
 //! Selection: [`kind`] (which learner), [`settings`] (each learner's own settings, tagged
 //! by kind, each struct defined beside its learner) and [`spec`] (settings and parameters,
@@ -35,6 +36,7 @@ pub mod error;
 pub mod fixed_delay;
 pub mod kind;
 pub mod learner;
+pub mod memory;
 pub mod mmq;
 pub mod mmq_kernel;
 pub mod mmq_reference;
@@ -55,6 +57,7 @@ pub use diagnostics::{DelayEstimate, Diagnostics};
 pub use error::LearnError;
 pub use kind::{LearnerKind, catalogue};
 pub use learner::{Decision, Experience, Learner, Table, Truth};
+pub use memory::{Memory, MemorySlots};
 pub use params::Params;
 pub use settings::LearnerSettings;
 pub use spec::{LearnerSpec, build};

@@ -38,6 +38,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
 use crate::learner::{Decision, Experience, Learner, Table};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::policy::{epsilon_greedy, pick_tie_in};
 
@@ -424,6 +425,17 @@ impl Learner for MultipleModelQ {
     fn reset_history(&mut self) {
         self.history.iter_mut().for_each(|h| *h = Past::default());
         self.next = (0, self.n);
+    }
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let n = self.n;
+        let mut mine = (std::mem::take(&mut self.history), self.next);
+        other.swap_with(&mut mine, || (vec![Past::default(); 2 * n], (0, n)));
+        (self.history, self.next) = mine;
     }
 }
 

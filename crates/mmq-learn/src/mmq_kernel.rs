@@ -29,6 +29,7 @@ use serde::{Deserialize, Serialize};
 use crate::diagnostics::Diagnostics;
 use crate::error::{LearnError, bad};
 use crate::learner::{Decision, Experience, Learner, Table, max_of};
+use crate::memory::Memory;
 use crate::mmq_reference::{act_on_block, best_model_values, q_table};
 use crate::params::Params;
 use crate::policy::argmax_random_tie;
@@ -220,6 +221,15 @@ impl Learner for KernelMmq {
 
     fn reset_history(&mut self) {
         self.history.iter_mut().for_each(|h| *h = (0, 0, 0));
+    }
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let n = self.n;
+        other.swap_with(&mut self.history, || vec![(0, 0, 0); n]);
     }
 }
 

@@ -17,6 +17,7 @@
 use mmq_core::{Action, Rng, State};
 
 use crate::learner::{Decision, Experience, Learner, Table, max_of};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::policy::{argmax_random_tie, epsilon_greedy};
 
@@ -90,6 +91,15 @@ impl Learner for MmqReference {
 
     fn tables(&self) -> Vec<Table> {
         vec![q_table(&self.q, self.n, self.num_actions)]
+    }
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let n = self.n;
+        other.swap_with(&mut self.history, || vec![(0, 0, 0); n]);
     }
 }
 

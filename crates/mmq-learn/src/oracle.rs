@@ -17,6 +17,7 @@ use mmq_core::{Action, State};
 
 use crate::diagnostics::Diagnostics;
 use crate::learner::{Experience, Learner, max_of};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
@@ -98,6 +99,14 @@ impl Learner for Oracle {
 
     fn reset_history(&mut self) {
         self.pending.clear();
+    }
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        other.swap_with(&mut self.pending, HashMap::new);
     }
 }
 

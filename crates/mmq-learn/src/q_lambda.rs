@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use crate::diagnostics::Diagnostics;
 use crate::error::{LearnError, bad};
 use crate::learner::{Decision, Experience, Learner, max_of};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
@@ -158,6 +159,14 @@ impl Learner for QLambda {
 
     fn reset_history(&mut self) {
         self.traces.clear();
+    }
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        other.swap_with(&mut self.traces, Traces::default);
     }
 }
 

@@ -53,6 +53,11 @@ impl Learner for QLearning {
     }
 
     q_table_methods!(q, tables, act(p));
+
+    fn shares_tables(&self) -> bool {
+        // No memory: every update reads only its own step.
+        true
+    }
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ use mmq_core::{Action, State};
 
 use crate::diagnostics::Diagnostics;
 use crate::learner::{Experience, Learner};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::q_lambda::Traces;
 use crate::table::{QTable, q_table_methods};
@@ -80,6 +81,16 @@ impl Learner for SarsaLambda {
     fn reset_history(&mut self) {
         self.pending = None;
         self.traces.clear();
+    }
+
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let mut mine = (std::mem::take(&mut self.traces), self.pending.take());
+        other.swap_with(&mut mine, || (Traces::default(), None));
+        (self.traces, self.pending) = mine;
     }
 }
 
