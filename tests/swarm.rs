@@ -1,6 +1,6 @@
 //! End-to-end tests of `mmq run --env swarm`: one robot without consultation is the
-//! single robot's run bit for bit, a swarm's results do not depend on the thread
-//! count, and a recorded swarm writes its MCAP file without changing its results.
+//! single robot's run bit for bit, a swarm's results (independent or shared learners)
+//! do not depend on the thread count, and a recorded swarm writes its MCAP file without changing its results.
 
 mod common;
 use common::*;
@@ -56,46 +56,41 @@ fn one_robot_without_consultation_is_the_single_robot_run_bit_for_bit() {
     }
 }
 
+/// Three robots consulting their peers, `learners` independent or shared, on `threads`
+/// threads: the results without timings.
+fn consulting_swarm(threads: &str, learner: &str, learners: &str) -> (serde_json::Value, String) {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().to_string_lossy().into_owned();
+    let learners = format!("learners={learners}");
+    #[rustfmt::skip]
+    let o = mmq(&[
+        "--threads", threads, "run", "-q", "--env", "swarm",
+        "--swarm", "robots=3", "--swarm", "consult=peers", "--swarm", "k=1",
+        "--swarm", "hop_delay=exponential:0.5s", "--swarm", &learners,
+        "--learner", learner, "--steps", "400", "--seeds", "2", "--eval-steps", "50", "--out", &out,
+    ]);
+    assert!(o.status.success(), "{}", text(&o).1);
+    results(d.path())
+}
+
 #[test]
 fn a_swarms_results_do_not_depend_on_the_thread_count() {
-    let mut runs = Vec::new();
-    for threads in ["1", "2"] {
-        let d = tempfile::tempdir().unwrap();
-        let out = d.path().to_string_lossy().into_owned();
-        let o = mmq(&[
-            "--threads",
-            threads,
-            "run",
-            "-q",
-            "--env",
-            "swarm",
-            "--swarm",
-            "robots=3",
-            "--swarm",
-            "consult=peers",
-            "--swarm",
-            "k=1",
-            "--swarm",
-            "hop_delay=exponential:0.5s",
-            "--learner",
-            "q",
-            "--steps",
-            "400",
-            "--seeds",
-            "2",
-            "--eval-steps",
-            "50",
-            "--out",
-            &out,
-        ]);
-        assert!(o.status.success(), "{}", text(&o).1);
-        runs.push(results(d.path()));
-    }
+    let runs = [consulting_swarm("1", "q", "independent"), consulting_swarm("2", "q", "independent")];
     assert_eq!(runs[0], runs[1]);
     // The consultation delayed rewards: some were delivered, with a delay in seconds.
     let mean = runs[0].0["mean"].as_object().unwrap().clone();
     assert!(mean["env/swarm/delivered"]["mean"].as_f64().unwrap() > 0.0, "{mean:?}");
     assert!(mean["env/swarm/delay_mean_s"]["mean"].as_f64().unwrap() > 0.0);
+}
+
+/// Parameter sharing: deterministic on any thread count, and not the independent
+/// learners' results (one table learns from every robot).
+#[test]
+fn a_shared_learner_is_deterministic_and_learns_from_every_robot() {
+    let shared = [consulting_swarm("1", "q-lambda", "shared"), consulting_swarm("2", "q-lambda", "shared")];
+    assert_eq!(shared[0], shared[1]);
+    let own = consulting_swarm("1", "q-lambda", "independent");
+    assert_ne!(shared[0].1, own.1, "the shared run's metrics equal the independent run's");
 }
 
 /// A sweep takes swarm settings as an axis, and its report has the swarm's section with

@@ -357,6 +357,7 @@ pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> 
         }
         EnvKind::Swarm => {
             crate::swarm::swarm_env_with(world, &cfg.swarm)?;
+            crate::swarm::check_swarm(cfg, world)?;
         }
     }
     let seeds = cfg.seed_list();

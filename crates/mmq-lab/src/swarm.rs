@@ -1,7 +1,12 @@
-//! One seed of the swarm: every robot learns with a learner of its own (independent
-//! learners), acting whenever its primitive ends; its reward reaches it when the swarm's
-//! consultation completes. Then a greedy evaluation of every robot at once, and the
-//! seed's result.
+//! One seed of the swarm: every robot learns, acting whenever its primitive ends; its
+//! reward reaches it when the swarm's consultation completes. Then a greedy evaluation of
+//! every robot at once, and the seed's result.
+//!
+//! Learners (`[swarm] learners`): `independent`, a learner of its own per robot; or
+//! `shared` (parameter sharing), one learner whose tables every robot updates, each robot
+//! with its own memory of its past steps (swapped in before the robot acts or learns:
+//! [`mmq_learn::MemorySlots`]). Only learners whose memory separates from their tables
+//! can share ([`mmq_learn::LearnerKind::shares_tables`]; the deconvolving ones cannot).
 //!
 //! The seed's trajectory is the swarm's: rewards and the learning curve are the mean
 //! over robots (so fractions of the optimum read as the single robot's), while counts
@@ -22,8 +27,8 @@ use std::time::Instant;
 
 use mmq_core::channel::DelayStats;
 use mmq_core::{Action, Rng, SeedTree, Start, State, Stream, World};
-use mmq_learn::{Experience, Learner, Truth};
-use mmq_robot::swarm::{RobotDelays, SwarmConfig, SwarmEnv, SwarmStep, robot_seed};
+use mmq_learn::{Experience, Learner, MemorySlots, Truth};
+use mmq_robot::swarm::{Learners, RobotDelays, SwarmConfig, SwarmEnv, SwarmStep, robot_seed};
 use mmq_robot::{RobotConfig, RobotEnv};
 
 use crate::config::RunConfig;
@@ -47,9 +52,94 @@ pub fn swarm_env(world: &World) -> Result<SwarmEnv, LabError> {
     swarm_env_with(world, &[])
 }
 
-/// One robot's learner and where its trajectory stands.
+/// The swarm's settings of `cfg` on `world`, checked: the `[swarm]` table and, for
+/// shared learners, that the learner can share its tables.
+pub(crate) fn check_swarm(cfg: &RunConfig, world: &World) -> Result<SwarmConfig, LabError> {
+    let swarm = SwarmConfig::from_world(world, &cfg.swarm).map_err(|e| LabError::EnvBuild(e.to_string()))?;
+    let kind = cfg.learner.kind();
+    if swarm.learners == Learners::Shared && !kind.shares_tables() {
+        return Err(unshareable(kind.name()));
+    }
+    Ok(swarm)
+}
+
+fn unshareable(name: &str) -> LabError {
+    LabError::param(
+        "swarm",
+        "learners=shared",
+        &format!(
+            "{name} builds its statistics from one trajectory's consecutive steps and cannot share \
+             its tables between robots; use learners=independent, or a tabular learner \
+             (q, fixed, mmq, mmq-kernel, q-lambda, sarsa-lambda, oracle)"
+        ),
+    )
+}
+
+/// The robots' learners: one each, or one for all with a memory per robot.
+enum Minds {
+    Own(Vec<Box<dyn Learner>>),
+    Shared { learner: Box<dyn Learner>, memories: MemorySlots },
+}
+
+impl Minds {
+    /// The learners of `n` robots as `cfg` says (from `factory` when given), within
+    /// `mem_limit` bytes together.
+    fn build(
+        cfg: &RunConfig,
+        env: &SwarmEnv,
+        seed: u64,
+        mem_limit: u128,
+        factory: Option<&LearnerFactory<'_>>,
+    ) -> Result<Minds, LabError> {
+        let (n, ns, na) = (env.robots(), env.num_states(), env.num_actions());
+        let one = |i: usize, limit: u128| match factory {
+            Some(f) => f(ns, na, robot_seed(seed, i)),
+            None => Ok(cfg.learner.build(ns, na, limit)?),
+        };
+        match env.swarm().learners {
+            Learners::Independent => {
+                Ok(Minds::Own((0..n).map(|i| one(i, mem_limit / n as u128)).collect::<Result<_, _>>()?))
+            }
+            Learners::Shared => {
+                let learner = one(0, mem_limit)?;
+                if !learner.shares_tables() {
+                    return Err(unshareable(learner.name()));
+                }
+                Ok(Minds::Shared { learner, memories: MemorySlots::new(n) })
+            }
+        }
+    }
+
+    /// Robot `i`'s learner, holding robot `i`'s memory: for acting and learning.
+    fn of(&mut self, i: usize) -> &mut dyn Learner {
+        match self {
+            Minds::Own(v) => &mut *v[i],
+            Minds::Shared { learner, memories } => {
+                memories.load(i, |m| learner.swap_memory(m));
+                &mut **learner
+            }
+        }
+    }
+
+    /// Robot `i`'s learner for what reads only its tables (greedy actions, the policy).
+    fn tables_of(&self, i: usize) -> &dyn Learner {
+        match self {
+            Minds::Own(v) => &*v[i],
+            Minds::Shared { learner, .. } => &**learner,
+        }
+    }
+
+    /// Why a learner cannot go on, if one cannot.
+    fn failure(&self) -> Option<String> {
+        match self {
+            Minds::Own(v) => v.iter().find_map(|l| l.failure()),
+            Minds::Shared { learner, .. } => learner.failure(),
+        }
+    }
+}
+
+/// Where one robot's trajectory stands.
 struct Seat {
-    learner: Box<dyn Learner>,
     rng: Rng,
     s: State,
     a: Action,
@@ -80,17 +170,13 @@ pub(crate) fn run_swarm_seed(
     let clock = Instant::now();
     let mut env = swarm_env_with(world, &cfg.swarm)?;
     let n = env.robots();
-    let (ns, na) = (env.num_states(), env.num_actions());
+    let ns = env.num_states();
+    let mut minds = Minds::build(cfg, &env, seed, mem_limit, factory)?;
     let mut seats = Vec::with_capacity(n);
     for i in 0..n {
-        let learner = match factory {
-            Some(f) => f(ns, na, robot_seed(seed, i))?,
-            None => cfg.learner.build(ns, na, mem_limit / n as u128)?,
-        };
         let traj = Trajectory { visits: vec![0; ns], ..Trajectory::default() };
         let rng = SeedTree::new(robot_seed(seed, i)).rng(Stream::Explore);
         seats.push(Seat {
-            learner,
             rng,
             s: 0,
             a: 0,
@@ -107,7 +193,7 @@ pub(crate) fn run_swarm_seed(
     if let Some(r) = &rec {
         r.trace(&mut env);
     }
-    let learned = learn(&mut env, &mut seats, cfg, world, seed, ctl, rec.as_mut());
+    let learned = learn(&mut env, &mut seats, &mut minds, cfg, world, seed, ctl, rec.as_mut());
     let complete = learned.is_ok() && seats.iter().all(|s| s.traj.steps_done == cfg.steps);
     // The file is finished on every way out; a write that failed fails the seed.
     let rec_failure = rec.take().and_then(|r| r.finish(complete));
@@ -116,12 +202,12 @@ pub(crate) fn run_swarm_seed(
     let learn_s = learn_clock.elapsed().as_secs_f64();
     let mut env_stats = swarm_stats(&env, &seats);
     let eval_steps = if complete { cfg.eval_steps } else { 0 };
-    let (greedy_per_step, greedy_path) = evaluate(&mut env, &mut seats, eval_steps, seed)?;
+    let (greedy_per_step, greedy_path) = evaluate(&mut env, &minds, eval_steps, seed)?;
     let stopped = || ctl.stop.load(Ordering::Relaxed);
     let maps_env =
         RobotEnv::new(world, env.config().clone()).map_err(|e| LabError::EnvBuild(e.to_string()))?;
-    let (policy_arrows, policy_probs, values, whole) = policy_of(&maps_env, &*seats[0].learner, &stopped);
-    let failure = seats.iter().find_map(|s| s.learner.failure()).or(rec_failure);
+    let (policy_arrows, policy_probs, values, whole) = policy_of(&maps_env, minds.tables_of(0), &stopped);
+    let failure = minds.failure().or(rec_failure);
     let complete = complete && whole && failure.is_none();
     let (mut baseline, mut baseline_greedy) = (None, None);
     if own_baseline && complete {
@@ -133,8 +219,8 @@ pub(crate) fn run_swarm_seed(
         }
     }
     let complete = complete && (!own_baseline || baseline.is_some());
-    let diagnostics = seats[0].learner.diagnostics();
-    let tables = if cfg.save_tables { seats[0].learner.tables() } else { Vec::new() };
+    let diagnostics = minds.tables_of(0).diagnostics();
+    let tables = if cfg.save_tables { minds.tables_of(0).tables() } else { Vec::new() };
     env_stats.push(("swarm/robots".into(), n as f64));
     Ok(SeedResult {
         seed,
@@ -159,9 +245,11 @@ pub(crate) fn run_swarm_seed(
 
 /// The learning of every robot until each has made `cfg.steps` decisions, the stop
 /// flag is set, a learner fails or the recording `rec` cannot be written.
+#[allow(clippy::too_many_arguments)]
 fn learn(
     env: &mut SwarmEnv,
     seats: &mut [Seat],
+    minds: &mut Minds,
     cfg: &RunConfig,
     world: &World,
     seed: u64,
@@ -176,7 +264,7 @@ fn learn(
     }
     for (i, seat) in seats.iter_mut().enumerate() {
         seat.s = states[i];
-        start_decision(env, i, seat, cfg.steps).map_err(env_err)?;
+        start_decision(env, i, seat, minds.of(i), cfg.steps).map_err(env_err)?;
     }
     let n = seats.len() as u64;
     let (mut decisions, mut reported) = (0u64, 0u64);
@@ -198,9 +286,10 @@ fn learn(
             if let Some(r) = rec.as_deref_mut() {
                 r.step(st, seat.s, seat.a, seat.model, seat.explored);
             }
-            observe(seat, st, cfg.window);
+            let learner = minds.of(st.robot);
+            observe(seat, learner, st, cfg.window);
             decisions += 1;
-            start_decision(env, st.robot, seat, cfg.steps).map_err(env_err)?;
+            start_decision(env, st.robot, seat, learner, cfg.steps).map_err(env_err)?;
         }
         // Progress in the single robot's units: decisions per robot.
         if decisions / n >= reported + 1024 {
@@ -225,13 +314,14 @@ fn start_decision(
     env: &mut SwarmEnv,
     i: usize,
     seat: &mut Seat,
+    learner: &mut dyn Learner,
     steps: u64,
 ) -> Result<(), mmq_core::EnvError> {
-    if seat.traj.steps_done >= steps || seat.learner.failure().is_some() {
+    if seat.traj.steps_done >= steps || learner.failure().is_some() {
         env.park(i);
         return Ok(());
     }
-    let d = seat.learner.act(seat.s, &mut seat.rng);
+    let d = learner.act(seat.s, &mut seat.rng);
     seat.a = d.action;
     seat.model = d.model;
     seat.explored = d.explored;
@@ -240,15 +330,15 @@ fn start_decision(
 
 /// Robot `seat`'s step `st`: the learner's observation and the trajectory's figures,
 /// as the single robot's step loop keeps them.
-fn observe(seat: &mut Seat, st: &SwarmStep, window: u64) {
+fn observe(seat: &mut Seat, learner: &mut dyn Learner, st: &SwarmStep, window: u64) {
     let t = st.decision;
-    let needs_truth = seat.learner.needs_truth();
+    let needs_truth = learner.needs_truth();
     if needs_truth {
         seat.truth.emitted_now = st.consultation.map(|_| st.step.reward);
         seat.truth.delivered.clear();
         seat.truth.delivered.extend(st.deliveries.iter().map(|d| (d.decision, d.value)));
     }
-    seat.learner.observe(&Experience {
+    learner.observe(&Experience {
         t,
         state: seat.s,
         action: seat.a,
@@ -345,12 +435,7 @@ fn swarm_trajectory(seats: &[Seat], sim_time_s: f64) -> Trajectory {
 /// evaluation), the others as the swarm's starts say; every robot acts greedily for
 /// `steps` decisions without updates. Returns the mean emitted reward per decision over
 /// robots and robot 0's first states.
-fn evaluate(
-    env: &mut SwarmEnv,
-    seats: &mut [Seat],
-    steps: u64,
-    seed: u64,
-) -> Result<(f64, Vec<usize>), LabError> {
+fn evaluate(env: &mut SwarmEnv, minds: &Minds, steps: u64, seed: u64) -> Result<(f64, Vec<usize>), LabError> {
     if steps == 0 {
         return Ok((f64::NAN, Vec::new()));
     }
@@ -359,14 +444,14 @@ fn evaluate(
     let states = env
         .reset_from(seeds.seed(Stream::Eval), seeds.seed(Stream::Delay), Start::Respawn)
         .map_err(env_err)?;
-    let mut rngs: Vec<Rng> =
-        (0..seats.len()).map(|i| SeedTree::new(robot_seed(seed, i)).rng(Stream::Eval)).collect();
+    let n = env.robots();
+    let mut rngs: Vec<Rng> = (0..n).map(|i| SeedTree::new(robot_seed(seed, i)).rng(Stream::Eval)).collect();
     let mut s = states;
-    let mut done = vec![0u64; seats.len()];
-    let mut total = vec![0.0; seats.len()];
+    let mut done = vec![0u64; n];
+    let mut total = vec![0.0; n];
     let mut path = vec![s[0]];
-    for i in 0..seats.len() {
-        let a = seats[i].learner.greedy(s[i], &mut rngs[i]);
+    for i in 0..n {
+        let a = minds.tables_of(i).greedy(s[i], &mut rngs[i]);
         env.act(i, a).map_err(env_err)?;
     }
     let mut out = Vec::new();
@@ -385,14 +470,14 @@ fn evaluate(
                 path.push(s[0]);
             }
             if done[i] < steps {
-                let a = seats[i].learner.greedy(s[i], &mut rngs[i]);
+                let a = minds.tables_of(i).greedy(s[i], &mut rngs[i]);
                 env.act(i, a).map_err(env_err)?;
             } else {
                 env.park(i);
             }
         }
     }
-    let per_step = total.iter().map(|t| t / steps as f64).sum::<f64>() / seats.len() as f64;
+    let per_step = total.iter().map(|t| t / steps as f64).sum::<f64>() / n as f64;
     Ok((per_step, path))
 }
 

@@ -46,7 +46,8 @@ impl Walker {
             self.in_flight.push((self.t, earned));
             truth.emitted_now = Some(earned);
         }
-        let due: Vec<(u64, f64)> = self.in_flight.iter().copied().filter(|&(u, _)| u + DELAY == self.t).collect();
+        let due: Vec<(u64, f64)> =
+            self.in_flight.iter().copied().filter(|&(u, _)| u + DELAY == self.t).collect();
         self.in_flight.retain(|&(u, _)| u + DELAY != self.t);
         truth.delivered = due.clone();
         let reward = due.iter().map(|&(_, v)| v).sum();
@@ -89,8 +90,11 @@ fn turns(n: usize) -> Vec<usize> {
     (0..n).map(|k| usize::from((k * 7 + k / 3) % 5 < 2)).collect()
 }
 
+/// A's actions and its action values (bits).
+type Outcome = (Vec<usize>, Vec<u64>);
+
 /// A alone, then A and B sharing the learner (with separate memories when `separate`).
-fn runs(kind: LearnerKind, separate: bool) -> ((Vec<usize>, Vec<u64>), (Vec<usize>, Vec<u64>)) {
+fn runs(kind: LearnerKind, separate: bool) -> (Outcome, Outcome) {
     let mut alone = build(kind);
     let mut a = Walker::new(0, 3, 10.0, 7);
     for _ in 0..400 {
@@ -126,6 +130,9 @@ fn the_learners_that_share_are_the_tabular_ones() {
         ["q", "fixed", "mmq", "mmq-reference", "mmq-kernel", "q-lambda", "sarsa-lambda", "oracle"],
         "a learner changed whether it shares its tables; update docs/swarm.md"
     );
+    for (kind, _, _) in catalogue() {
+        assert_eq!(kind.shares_tables(), build(kind).shares_tables(), "{}", kind.name());
+    }
 }
 
 #[test]

@@ -319,11 +319,9 @@ fn cells(
             })?;
         let world = idx[0] * robot_settings + robot_at.map_or(0, |k| idx[k]);
         if cfg.env == EnvKind::Swarm {
-            let checked = cfg.validate().map(|_| ()).and_then(|()| {
-                mmq_robot::swarm::SwarmConfig::from_world(&worlds.loaded[world], &cfg.swarm)
-                    .map(|_| ())
-                    .map_err(|e| LabError::EnvBuild(e.to_string()))
-            });
+            let checked = cfg
+                .validate()
+                .and_then(|_| crate::swarm::check_swarm(&cfg, &worlds.loaded[world]).map(|_| ()));
             if let Err(e) = checked {
                 return Err(LabError::Config {
                     file: src.file.to_string(),

@@ -12,7 +12,11 @@
 //! hop_delay = "wifi"         # one hop's latency: any delay spec in seconds
 //! loss = 0.05                # probability that one hop's attempt is lost (it is retried)
 //! server = [5, 5]            # server: the base station's cell (default: the respawn cell)
+//! learners = "independent"   # one learner per robot, or "shared": one table for all
 //! ```
+//!
+//! `learners` is read by the lab, which assigns the learners; the environment keeps it
+//! only so that a swarm is described by one table (and a sweep can vary it like the rest).
 
 use mmq_core::delay::seconds::SecondsDist;
 use mmq_core::{DelayDist, World};
@@ -25,8 +29,39 @@ use crate::config::RobotError;
 pub const MAX_ROBOTS: usize = 64;
 
 /// The fields of the `[swarm]` table.
-pub const SWARM_FIELDS: [&str; 9] =
-    ["robots", "starts", "bump_penalty", "consult", "k", "radio_range_m", "hop_delay", "loss", "server"];
+pub const SWARM_FIELDS: [&str; 10] = [
+    "robots",
+    "starts",
+    "bump_penalty",
+    "consult",
+    "k",
+    "radio_range_m",
+    "hop_delay",
+    "loss",
+    "server",
+    "learners",
+];
+
+/// How the robots' learners are assigned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Learners {
+    /// One learner per robot, each with its own tables.
+    #[default]
+    Independent,
+    /// One learner for all robots (parameter sharing): every robot learns into the same
+    /// tables, each with its own memory of its past steps.
+    Shared,
+}
+
+impl Learners {
+    /// The name in a `[swarm]` table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Learners::Independent => "independent",
+            Learners::Shared => "shared",
+        }
+    }
+}
 
 /// How a robot's reward reaches it.
 #[derive(Clone, Debug, PartialEq)]
@@ -83,6 +118,8 @@ pub struct SwarmConfig {
     pub hop_delay: SecondsDist,
     /// Probability that one attempt over one hop is lost.
     pub loss: f64,
+    /// How the lab assigns the robots' learners.
+    pub learners: Learners,
 }
 
 #[derive(Deserialize)]
@@ -97,6 +134,7 @@ struct SwarmTable {
     hop_delay: Option<String>,
     loss: Option<f64>,
     server: Option<Vec<i64>>,
+    learners: Option<String>,
 }
 
 fn bad(
@@ -213,7 +251,12 @@ impl SwarmConfig {
                 "loss = 0 … 0.98",
             ));
         }
-        Ok(SwarmConfig { robots, starts, bump_penalty, consult, radio_range_m, hop_delay, loss })
+        let learners = match raw.learners.as_deref().unwrap_or("independent") {
+            "independent" => Learners::Independent,
+            "shared" => Learners::Shared,
+            other => return Err(bad("learners", other, "unknown assignment", "independent or shared")),
+        };
+        Ok(SwarmConfig { robots, starts, bump_penalty, consult, radio_range_m, hop_delay, loss, learners })
     }
 }
 
@@ -321,6 +364,7 @@ mod tests {
         assert_eq!((c.robots, &c.starts, &c.consult), (1, &Starts::Random, &Consult::None));
         assert_eq!((c.bump_penalty, c.loss, c.radio_range_m), (-1.0, 0.0, 1.5));
         assert_eq!(c.hop_delay, SecondsDist::Wifi);
+        assert_eq!(c.learners, Learners::Independent);
     }
 
     #[test]
@@ -334,8 +378,10 @@ mod tests {
             "hop_delay=const:0.1s",
             "loss=0.25",
             "bump_penalty=-2",
+            "learners=shared",
         ])
         .unwrap();
+        assert_eq!(c.learners, Learners::Shared);
         let w = world();
         assert_eq!(c.starts, Starts::Cells(vec![w.index(0, 0), w.index(2, 3)]));
         assert_eq!(
@@ -361,7 +407,8 @@ mod tests {
 
     #[test]
     fn bad_settings_name_their_field() {
-        let cases: [(&[&str], &str); 12] = [
+        let cases: [(&[&str], &str); 13] = [
+            (&["learners=pooled"], "learners"),
             (&["robots=0"], "robots"),
             (&["robots=65"], "robots"),
             (&["robots=11"], "robots"), // 10 free cells besides the goal

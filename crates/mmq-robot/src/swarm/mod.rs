@@ -21,7 +21,9 @@ use mmq_core::seed::splitmix64;
 use mmq_core::{Action, EnvError, Event, PoseSample, Start, State, World};
 use rapier2d::prelude::{ColliderHandle, PhysicsWorld, RigidBodyHandle};
 
-pub use self::config::{Consult, MAX_ROBOTS, SWARM_FIELDS, Starts, SwarmConfig, apply_swarm_overrides};
+pub use self::config::{
+    Consult, Learners, MAX_ROBOTS, SWARM_FIELDS, Starts, SwarmConfig, apply_swarm_overrides,
+};
 use self::deliver::Post;
 pub use self::deliver::{Delivery, RobotDelays, SwarmStep};
 
