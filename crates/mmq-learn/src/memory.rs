@@ -104,7 +104,7 @@ mod tests {
     fn slots_give_each_trajectory_back_its_own_memory() {
         let mut slots = MemorySlots::new(3);
         let mut held = 0u32; // trajectory 0's fresh memory
-        let mut swap = |held: &mut u32, m: &mut Memory| m.swap_with(held, || 0);
+        let swap = |held: &mut u32, m: &mut Memory| m.swap_with(held, || 0);
         let turns = [0, 1, 1, 2, 0, 2, 1, 0, 0, 2];
         let mut expect = [0u32; 3];
         for (k, &i) in turns.iter().enumerate() {
