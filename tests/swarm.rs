@@ -39,13 +39,15 @@ fn same_common_figures(a: &serde_json::Value, b: &serde_json::Value) {
 #[test]
 fn one_robot_without_consultation_is_the_single_robot_run_bit_for_bit() {
     let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-    let common = ["--learner", "mmq", "--steps", "1500", "--seeds", "2", "--eval-steps", "100"];
+    // With the grid-optimal reference: the swarm's reference is the single robot's too.
+    let common = ["--learner", "mmq", "--steps", "1500", "--seeds", "2", "--eval-steps", "100", "--reference"];
     run(
         d1.path(),
         &[&["--env", "robot", "--delay", "none", "--robot", "profile=realistic"][..], &common].concat(),
     );
     run(d2.path(), &[&["--env", "swarm", "--robot", "profile=realistic"][..], &common].concat());
     let ((s1, _), (s2, _)) = (results(d1.path()), results(d2.path()));
+    assert!(s1["mean"]["perf/fraction_of_reference"]["mean"].is_f64());
     same_common_figures(&s1, &s2);
     for f in ["q_seed0.npy", "q_seed1.npy", "policy.csv"] {
         assert_eq!(

@@ -192,13 +192,6 @@ impl RunConfig {
                 ));
             }
         }
-        if self.env == EnvKind::Swarm && self.reference {
-            return Err(LabError::param(
-                "reference",
-                "true",
-                "the grid-optimal reference runs on the grid and the single robot; run the swarm without it",
-            ));
-        }
         if self.env != EnvKind::Swarm && !self.swarm.is_empty() {
             return Err(LabError::param(
                 "swarm",

@@ -86,6 +86,11 @@ impl Learner for GridOptimal {
     /// It does not learn.
     fn observe(&mut self, _: &Experience<'_>) {}
 
+    /// No memory and no learning: one agent serves any number of trajectories.
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
     fn greedy(&self, state: State, rng: &mut Rng) -> Action {
         self.pick(state, rng)
     }

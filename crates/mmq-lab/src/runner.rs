@@ -513,9 +513,5 @@ mod tests {
             }
             assert!(per_step > 0.0);
         }
-        // The swarm has no reference.
-        let swarm =
-            RunConfig { env: EnvKind::Swarm, delay: "none".into(), reference: true, ..RunConfig::default() };
-        assert!(swarm.validate().unwrap_err().to_string().contains("`reference`"));
     }
 }

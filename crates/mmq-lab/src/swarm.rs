@@ -33,6 +33,7 @@ use mmq_robot::{RobotConfig, RobotEnv};
 
 use crate::config::RunConfig;
 use crate::error::LabError;
+use crate::grid_optimal::GridOptimal;
 use crate::stepper::event_index;
 use crate::swarm_record::Recording;
 use crate::trajectory::{Control, CurveRow, LearnerFactory, SeedResult, Trajectory, policy_of};
@@ -219,6 +220,9 @@ pub(crate) fn run_swarm_seed(
         }
     }
     let complete = complete && (!own_baseline || baseline.is_some());
+    let reference =
+        if cfg.reference && complete { reference_run(cfg, world, seed, ctl, mem_limit)? } else { None };
+    let complete = complete && (!cfg.reference || reference.is_some());
     let diagnostics = minds.tables_of(0).diagnostics();
     let tables = if cfg.save_tables { minds.tables_of(0).tables() } else { Vec::new() };
     env_stats.push(("swarm/robots".into(), n as f64));
@@ -236,11 +240,34 @@ pub(crate) fn run_swarm_seed(
         tables,
         baseline,
         baseline_greedy_per_step: baseline_greedy,
-        reference: None,
+        reference,
         wall_time_s: clock.elapsed().as_secs_f64(),
         learn_time_s: learn_s,
         failure,
     })
+}
+
+/// The reference: the grid-optimal agent (`grid-optimal`, ε-greedy around the world
+/// MDP's optimal policy) on every robot of the same swarm, with the run's steps, ε and
+/// streams; what the grid's optimal policy earns on this swarm, crowding included.
+/// `None` if stopped.
+fn reference_run(
+    cfg: &RunConfig,
+    world: &World,
+    seed: u64,
+    ctl: Control<'_>,
+    mem_limit: u128,
+) -> Result<Option<Trajectory>, LabError> {
+    let optimum = mmq_core::optimum(world);
+    let name = cfg.world.display().to_string();
+    let epsilon = cfg.learner.params.epsilon;
+    let make = |ns: usize, na: usize, _: u64| -> Result<Box<dyn Learner>, LabError> {
+        Ok(Box::new(GridOptimal::new(&optimum, epsilon, ns, na, &name)?))
+    };
+    let ref_cfg =
+        RunConfig { reference: false, baseline: false, save_tables: false, eval_steps: 0, ..cfg.clone() };
+    let r = run_swarm_seed(&ref_cfg, world, seed, ctl, mem_limit, false, Some(&make), None)?;
+    Ok(r.complete.then_some(r.run))
 }
 
 /// The learning of every robot until each has made `cfg.steps` decisions, the stop
