@@ -74,11 +74,6 @@ pub(crate) fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
 /// Runs `mmq run`.
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
-    if cfg.env == EnvKind::Swarm && a.live.is_some() {
-        return Err(crate::input_error(
-            "--live: the live view shows one robot; record the swarm (--record) and open the file in Foxglove".to_string(),
-        ));
-    }
     let world = cfg.load_world()?;
     // Before anything is written: a bad address or a port in use stops here.
     let live = crate::live::start(&a, &cfg)?;

@@ -1,6 +1,7 @@
 //! End-to-end tests of `mmq run --env swarm`: one robot without consultation is the
 //! single robot's run bit for bit, a swarm's results (independent or shared learners)
-//! do not depend on the thread count, and a recorded swarm writes its MCAP file without changing its results.
+//! do not depend on the thread count, and a recorded swarm (served live or not) writes
+//! its MCAP file without changing its results.
 
 mod common;
 use common::*;
@@ -40,7 +41,8 @@ fn same_common_figures(a: &serde_json::Value, b: &serde_json::Value) {
 fn one_robot_without_consultation_is_the_single_robot_run_bit_for_bit() {
     let (d1, d2) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     // With the grid-optimal reference: the swarm's reference is the single robot's too.
-    let common = ["--learner", "mmq", "--steps", "1500", "--seeds", "2", "--eval-steps", "100", "--reference"];
+    let common =
+        ["--learner", "mmq", "--steps", "1500", "--seeds", "2", "--eval-steps", "100", "--reference"];
     run(
         d1.path(),
         &[&["--env", "robot", "--delay", "none", "--robot", "profile=realistic"][..], &common].concat(),
@@ -166,6 +168,12 @@ fn a_recorded_swarm_writes_its_mcap_file_and_learns_as_unrecorded() {
     ];
     run(d1.path(), &[&["--env", "swarm"][..], &common].concat());
     run(d2.path(), &[&["--env", "swarm", "--record", "--record-rate", "5"][..], &common].concat());
+    // Served live with no viewer: the same recording, byte for byte.
+    let d3 = tempfile::tempdir().unwrap();
+    let live = ["--env", "swarm", "--record", "--record-rate", "5", "--live", "0"];
+    run(d3.path(), &[&live[..], &common].concat());
+    let file = |d: &tempfile::TempDir| std::fs::read(d.path().join("trajectory-seed0.mcap")).unwrap();
+    assert!(file(&d2) == file(&d3), "the recording differs with --live");
     let ((mut s1, m1), (mut s2, m2)) = (results(d1.path()), results(d2.path()));
     assert_eq!(s2["config"]["record"]["pose_rate_hz"], 5.0);
     for s in [&mut s1, &mut s2] {

@@ -86,7 +86,11 @@ impl LiveRun {
         out: &Path,
         pose_rate_hz: f64,
     ) -> Result<LiveRun, LogError> {
-        let server = LiveServer::start(c)?;
+        let mut c = c.clone();
+        if cfg.env == EnvKind::Swarm {
+            c.channels = mmq_log::SWARM_LIVE;
+        }
+        let server = LiveServer::start(&c)?;
         let tap = Mutex::new(Some(server.tap()));
         Ok(LiveRun { server, tap, pose_rate_hz, cfg: cfg.clone(), out: out.to_path_buf() })
     }
@@ -109,10 +113,21 @@ impl LiveRun {
         }
         let Some(tap) = self.tap.lock().ok().and_then(|mut t| t.take()) else { return Ok(None) };
         let path = trajectory_path(&self.out, seed);
+        let io =
+            |path: PathBuf, e: LogError| LabError::Io { path, source: std::io::Error::other(e.to_string()) };
+        if self.cfg.env == EnvKind::Swarm {
+            let rec = match recorder_config(&self.cfg, path.clone()) {
+                Some(rc) => SwarmRecorder::create(rc).map_err(|e| io(path, e))?.with_live(tap),
+                None => {
+                    let mut rc = RecorderConfig::new(PathBuf::new());
+                    rc.pose_rate_hz = self.pose_rate_hz;
+                    SwarmRecorder::live_only(rc, tap)
+                }
+            };
+            return Ok(Some(Box::new(rec)));
+        }
         let rec = match recorder_config(&self.cfg, path.clone()) {
-            Some(rc) => McapRecorder::create(rc)
-                .map_err(|e| LabError::Io { path, source: std::io::Error::other(e.to_string()) })?
-                .with_live(tap),
+            Some(rc) => McapRecorder::create(rc).map_err(|e| io(path, e))?.with_live(tap),
             None => {
                 let mut rc = RecorderConfig::new(PathBuf::new());
                 rc.pose_rate_hz = self.pose_rate_hz;

@@ -3,8 +3,8 @@
 //! frame of the robots' poses and every robot's step, in simulated-time order.
 //!
 //! The recorder reaches the seed as its observer and is taken back here as its own type
-//! ([`mmq_core::Observer::into_any`]); any other observer (the live view, which shows
-//! one robot) is refused.
+//! ([`mmq_core::Observer::into_any`]); it may also show the swarm in the live view, or
+//! only that (`SwarmRecorder::live_only`). Any other observer is refused.
 
 use mmq_core::{Env, Observer, RunInfo, State, World};
 use mmq_log::{SwarmDelivery, SwarmRecorder, SwarmSetup, SwarmStepIn};
@@ -29,9 +29,9 @@ impl Recording {
         match observer.into_any().and_then(|a| a.downcast::<SwarmRecorder>().ok()) {
             Some(rec) => Ok(Recording { rec, facts, frames: Vec::new(), deliveries: Vec::new() }),
             None => Err(LabError::param(
-                "live",
+                "record",
                 "on",
-                "the live view shows one robot; record the swarm (`record`) and open the file instead",
+                "the swarm is recorded by its own recorder; this observer is not one",
             )),
         }
     }

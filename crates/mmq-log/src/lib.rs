@@ -34,11 +34,11 @@ mod writer;
 
 pub use compare::{Mismatch, compare, compare_prefix};
 pub use error::LogError;
-pub use live::{LiveConfig, LiveServer, LiveTap};
+pub use live::{LiveChannels, LiveConfig, LiveServer, LiveTap};
 pub use reader::{LogAttachment, LogContents, PoseStamp, ReadStop, Stamped, TopicInfo, read_log};
 pub use recorder::{
     McapRecorder, OutcomeHandle, RecordOutcome, RecordStats, RecorderConfig, StepWindow, TopicStats,
 };
 pub use render::{render, render_png, render_svg};
 pub use summary::{LogSummary, summary};
-pub use swarm::{SwarmDelivery, SwarmRecorder, SwarmSetup, SwarmStepIn};
+pub use swarm::{SWARM_LIVE, SwarmDelivery, SwarmRecorder, SwarmSetup, SwarmStepIn};

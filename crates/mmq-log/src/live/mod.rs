@@ -84,6 +84,36 @@ pub fn exposure_warning(addr: SocketAddr, playback: bool) -> Option<String> {
     ))
 }
 
+/// The channels a live view advertises: (topic, schema name, schema text) in the
+/// recorder's slot order, which of them are latched (every new subscriber gets their last
+/// message) and which are sent per sample rather than thinned per topic.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LiveChannels {
+    /// Every channel, in slot order.
+    pub channels: &'static [(&'static str, &'static str, &'static str)],
+    /// Topics whose last message is kept for new subscribers.
+    pub latched: &'static [&'static str],
+    /// Topics not thinned per topic (poses go per sample; contacts and notes whole).
+    pub per_sample: &'static [&'static str],
+}
+
+/// The single robot's live channels: the recording's [`CHANNELS`], then the log channel.
+pub const ROBOT_CHANNELS: LiveChannels = LiveChannels {
+    channels: &ROBOT_LIVE,
+    latched: &LATCHED,
+    per_sample: &[topics::TF, topics::POSE, topics::POSE_ESTIMATE, topics::CONTACT, topics::LOG],
+};
+
+const ROBOT_LIVE: [(&str, &str, &str); CHANNELS.len() + 1] = {
+    let mut all = [LOG_CHANNEL; CHANNELS.len() + 1];
+    let mut i = 0;
+    while i < CHANNELS.len() {
+        all[i] = CHANNELS[i];
+        i += 1;
+    }
+    all
+};
+
 /// How the live view is served.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LiveConfig {
@@ -98,12 +128,20 @@ pub struct LiveConfig {
     /// loses the oldest beyond this many, and is disconnected when as many control
     /// messages (time updates) wait for it.
     pub backlog: usize,
+    /// What it shows ([`ROBOT_CHANNELS`]; a swarm: [`crate::swarm::SWARM_LIVE`]).
+    pub channels: LiveChannels,
 }
 
 impl LiveConfig {
     /// Loopback on Foxglove's usual port, in real time.
     pub fn new(name: impl Into<String>) -> Self {
-        Self { addr: DEFAULT_ADDR, speed: 1.0, name: name.into(), backlog: CLIENT_BACKLOG }
+        Self {
+            addr: DEFAULT_ADDR,
+            speed: 1.0,
+            name: name.into(),
+            backlog: CLIENT_BACKLOG,
+            channels: ROBOT_CHANNELS,
+        }
     }
 }
 
@@ -114,7 +152,7 @@ type Latched = (u64, Vec<u8>);
 struct Shared {
     /// The SDK context the channels and the server belong to (kept alive with them).
     _ctx: Arc<Context>,
-    /// The channels, in recorder slot order: [`CHANNELS`], then the log channel.
+    /// The channels, in recorder slot order ([`LiveChannels`]).
     channels: Vec<Arc<RawChannel>>,
     /// Slot of each channel id.
     slots: HashMap<ChannelId, usize>,
@@ -154,13 +192,13 @@ fn run_clock(shared: Weak<Shared>) {
 }
 
 impl Shared {
-    fn new(ctx: &Arc<Context>) -> Result<Self, String> {
+    fn new(ctx: &Arc<Context>, which: &LiveChannels) -> Result<Self, String> {
         let mut channels = Vec::new();
         let mut slots = HashMap::new();
         let mut latched_slot = Vec::new();
         let mut gated_slot = Vec::new();
-        let per_sample = [topics::TF, topics::POSE, topics::POSE_ESTIMATE, topics::CONTACT, topics::LOG];
-        for (topic, schema, text) in CHANNELS.iter().chain([&LOG_CHANNEL]) {
+        let (latched, per_sample) = (which.latched, which.per_sample);
+        for (topic, schema, text) in which.channels {
             let ch = ctx
                 .channel_builder(*topic)
                 .message_encoding("json")
@@ -168,7 +206,7 @@ impl Shared {
                 .build_raw()
                 .map_err(|e| format!("cannot create the channel {topic}: {e}"))?;
             slots.insert(ch.id(), channels.len());
-            latched_slot.push(LATCHED.contains(topic));
+            latched_slot.push(latched.contains(topic));
             gated_slot.push(!per_sample.contains(topic));
             channels.push(ch);
         }
@@ -294,7 +332,8 @@ impl LiveServer {
         }
         let ctx = Context::new();
         let shared = Arc::new(
-            Shared::new(&ctx).map_err(|message| LogError::LiveServer { addr: config.addr, message })?,
+            Shared::new(&ctx, &config.channels)
+                .map_err(|message| LogError::LiveServer { addr: config.addr, message })?,
         );
         let listener = Arc::new(Listener(Arc::clone(&shared), Greeted::default(), config.backlog));
         let handle = start_server(&ctx, config, vec![Capability::Time], listener, None)?;
@@ -559,6 +598,27 @@ impl LiveTap {
         }
         self.next_pose_ns = (log_time / LIVE_POSE_PERIOD_NS + 1) * LIVE_POSE_PERIOD_NS;
         true
+    }
+
+    /// Sends robot `robot`'s transform (world → `robot<i>`, or `robot<i>_estimate`) on
+    /// `/tf` (slot `tf`), as a swarm recording writes it.
+    pub(crate) fn robot_transform(
+        &mut self,
+        tf: usize,
+        log_time: u64,
+        robot: u32,
+        estimate: bool,
+        p: [f64; 3],
+    ) {
+        let ch = &self.shared.channels[tf];
+        if !ch.has_sinks() {
+            return;
+        }
+        self.pose.set(log_time, p[0], p[1], p[2]);
+        self.scratch.clear();
+        self.pose.robot_transform(&mut self.scratch, robot, estimate);
+        ch.log_with_meta(&self.scratch, PartialMetadata { log_time: Some(log_time) });
+        self.pace(log_time);
     }
 
     /// Sends a pose on `/tf` (slot `tf`) and `/robot/pose` (slot `pose`), with the

@@ -22,6 +22,12 @@
 //!   over the radio, `/swarm/links`: the hops it took, as lines between the robots (and the
 //!   station) where they were, shown for a moment (a scene entity with a lifetime).
 //!
+//! A recorder can also show the swarm in a live view ([`SwarmRecorder::with_live`], or
+//! [`SwarmRecorder::live_only`] without a file; the server advertises [`SWARM_LIVE`]):
+//! the same bytes as the file, thinned as the single robot's live view thins them (frames
+//! at most every [`crate::live::LIVE_POSE_PERIOD_NS`] of simulated time, the other topics
+//! at most once per [`crate::live::LIVE_MIN_GAP`]), paced to the view's speed.
+//!
 //! Errors never stop the run: the first one is kept and returned by `finish` (and by
 //! [`mmq_core::Observer::error`]), and recording stops there.
 
@@ -36,6 +42,7 @@ use mmq_core::{Action, Event, Observer, PoseSample, RunInfo, State};
 use serde::{Deserialize, Serialize};
 
 use crate::error::LogError;
+use crate::live::{LiveChannels, LiveTap};
 use crate::mcap_out::{ChunkOptions, McapOut};
 use crate::messages as m;
 use crate::recorder::{DIGEST_START, RecordStats, RecorderConfig, TopicStats};
@@ -70,6 +77,14 @@ pub const SWARM_CHANNELS: [(&str, &str, &str); 6] = [
     (topics::LINKS, "foxglove.SceneUpdate", m::schemas::SCENE_UPDATE),
     (topics::STEP, "mmq.SwarmStep", STEP_SCHEMA),
 ];
+
+/// A swarm's live view: its channels, the arena and the bodies latched, frames thinned
+/// per sample.
+pub const SWARM_LIVE: LiveChannels = LiveChannels {
+    channels: &SWARM_CHANNELS,
+    latched: &[topics::ARENA, topics::BODIES],
+    per_sample: &[topics::TF],
+};
 
 /// Channel slots, indices into [`SWARM_CHANNELS`].
 #[derive(Clone, Copy)]
@@ -237,6 +252,8 @@ pub struct SwarmRecorder {
     steps: u64,
     last_flush: Instant,
     stats: RecordStats,
+    /// The live view the messages also go to.
+    live: Option<LiveTap>,
 }
 
 impl std::fmt::Debug for SwarmRecorder {
@@ -318,7 +335,41 @@ impl SwarmRecorder {
             steps: 0,
             last_flush: Instant::now(),
             stats: RecordStats::default(),
+            live: None,
         })
+    }
+
+    /// A recorder that writes no file and shows the swarm in a live view only (of
+    /// `config`, the pose rate is used).
+    pub fn live_only(config: RecorderConfig, live: LiveTap) -> Self {
+        Self {
+            config,
+            writer: None,
+            channel_ids: [0; NCH],
+            counts: [0; NCH],
+            error: None,
+            failed: None,
+            run: None,
+            last_ns: 0,
+            next_trail_point_s: 0.0,
+            next_trail_msg_s: 0.0,
+            steps: 0,
+            last_flush: Instant::now(),
+            stats: RecordStats::default(),
+            live: Some(live),
+        }
+    }
+
+    /// Also shows the swarm in a live view, with the same messages as the file.
+    pub fn with_live(mut self, live: LiveTap) -> Self {
+        self.live = Some(live);
+        self
+    }
+
+    /// Whether what happens now is written or shown (a live view without viewers shows
+    /// nothing: then the messages are not even built).
+    fn active(&self) -> bool {
+        self.writer.is_some() || self.live.as_ref().is_some_and(LiveTap::has_clients)
     }
 
     /// The frame period to ask of the swarm, seconds of simulated time.
@@ -349,23 +400,38 @@ impl SwarmRecorder {
     }
 
     fn write<T: Serialize>(&mut self, ch: Ch, log_time: u64, msg: &T) {
-        let Some(w) = self.writer.as_mut() else { return };
-        let r = w.message(self.channel_ids[ch as usize], log_time, |out| {
-            // Our own plain structs into a Vec: cannot fail.
-            serde_json::to_writer(out, msg).expect("JSON serialization of a log message")
-        });
+        // Our own plain structs into a Vec: cannot fail.
+        let json =
+            |out: &mut Vec<u8>| serde_json::to_writer(out, msg).expect("JSON serialization of a log message");
+        let i = ch as usize;
+        let Self { live, writer, channel_ids, .. } = self;
+        let wanted = live.as_mut().is_some_and(|l| l.wants(i));
+        let r = match live.as_mut().filter(|_| wanted) {
+            // Serialized once, for the view and the file.
+            Some(tap) => {
+                let bytes = tap.send(i, log_time, json);
+                writer
+                    .as_mut()
+                    .map(|w| w.message(channel_ids[i], log_time, |out| out.extend_from_slice(bytes)))
+            }
+            None => writer.as_mut().map(|w| w.message(channel_ids[i], log_time, json)),
+        };
         match r {
-            Ok(()) => self.counts[ch as usize] += 1,
-            Err(e) => self.fail(e),
+            Some(Ok(())) => self.counts[i] += 1,
+            Some(Err(e)) => self.fail(e),
+            None => {}
         }
     }
 
     /// Robot `robot`'s pose (or estimate) on `/tf`; the writer writes the JSON (as
     /// serde_json writes [`m::FrameTransform`]).
-    fn transform(&mut self, log_time: u64, robot: usize, estimate: bool, p: &PoseSample) {
+    fn transform(&mut self, log_time: u64, robot: usize, estimate: bool, p: &PoseSample, live: bool) {
+        let robot = u32::try_from(robot).unwrap_or(u32::MAX);
+        if live && let Some(tap) = self.live.as_mut() {
+            tap.robot_transform(Ch::Tf as usize, log_time, robot, estimate, [p.x, p.y, p.theta]);
+        }
         let Some(w) = self.writer.as_mut() else { return };
         let tf = self.channel_ids[Ch::Tf as usize];
-        let robot = u32::try_from(robot).unwrap_or(u32::MAX);
         match w.robot_transform(tf, log_time, robot, estimate, p.x, p.y, p.theta) {
             Ok(()) => self.counts[Ch::Tf as usize] += 1,
             Err(e) => self.fail(e),
@@ -454,15 +520,17 @@ impl SwarmRecorder {
     /// `time_s`.
     pub fn frame(&mut self, time_s: f64, poses: &[PoseSample], estimates: &[Option<PoseSample>]) {
         let Some(mut run) = self.run.take() else { return };
-        if self.writer.is_some() {
+        if self.active() {
             let log_time = self.stamp(time_s);
             let ts = m::Time::from_ns(log_time);
+            // The whole frame goes to the view, or none of it.
+            let live = self.live.as_mut().is_some_and(|l| l.pose_due(log_time));
             for (i, p) in poses.iter().enumerate().take(run.robots) {
-                self.transform(log_time, i, false, p);
+                self.transform(log_time, i, false, p, live);
                 if run.estimates
                     && let Some(Some(e)) = estimates.get(i)
                 {
-                    self.transform(log_time, i, true, e);
+                    self.transform(log_time, i, true, e, live);
                 }
             }
             run.frames += 1;
@@ -496,7 +564,7 @@ impl SwarmRecorder {
             *n += 1;
         }
         self.steps += 1;
-        if self.writer.is_some() {
+        if self.active() {
             let log_time = self.stamp(s.time_s);
             let consult = match s.consultation {
                 _ if s.earned == 0.0 => "none",
@@ -530,6 +598,9 @@ impl SwarmRecorder {
                     s.consultation.map_or(LINK_SHOWN_S.0, |c| c.0).clamp(LINK_SHOWN_S.0, LINK_SHOWN_S.1);
                 let links = scenes::links(s, run.radius, shown, m::Time::from_ns(log_time));
                 self.write(Ch::Links, log_time, &links);
+            }
+            if let Some(tap) = self.live.as_mut() {
+                tap.step_end(log_time);
             }
         }
         self.run = Some(run);

@@ -7,7 +7,8 @@ use std::path::Path;
 
 use mmq_core::seed::splitmix64;
 use mmq_core::{Env, RunInfo, World};
-use mmq_log::swarm::{SWARM_CHANNELS, topics};
+use mmq_log::live::{LiveConfig, LiveServer};
+use mmq_log::swarm::{SWARM_CHANNELS, SWARM_LIVE, topics};
 use mmq_log::{RecorderConfig, SwarmDelivery, SwarmRecorder, SwarmSetup, SwarmStepIn, read_log};
 use mmq_robot::swarm::{SwarmConfig, SwarmEnv, SwarmFrame};
 use mmq_robot::{RobotConfig, RobotEnv, apply_overrides};
@@ -20,6 +21,16 @@ const DECISIONS: u64 = 200;
 /// Records `DECISIONS` seeded pseudo-random decisions of every robot of a realistic
 /// swarm consulting a base station; returns the frames fed to the recorder.
 fn record_swarm(world: &World, path: &Path) -> usize {
+    let mut rec = SwarmRecorder::create(RecorderConfig::new(path)).unwrap();
+    let fed = drive(world, &mut rec);
+    let stats = rec.finish(true).unwrap();
+    assert!(stats.finished);
+    assert_eq!(stats.topics[topics::STEP].count, ROBOTS as u64 * DECISIONS);
+    fed
+}
+
+/// Feeds `rec` the swarm of [`record_swarm`]; returns the frames fed.
+fn drive(world: &World, rec: &mut SwarmRecorder) -> usize {
     let t = apply_overrides(world.robot.as_ref(), &["profile=realistic".to_string()]).unwrap();
     let cfg = RobotConfig::from_table(&t).unwrap();
     let ov: Vec<String> = ["robots=3", "consult=server", "radio_range_m=20"].map(String::from).to_vec();
@@ -30,7 +41,6 @@ fn record_swarm(world: &World, path: &Path) -> usize {
     };
     let mut env = SwarmEnv::new(world, cfg.clone(), sc).unwrap();
     let names = RobotEnv::new(world, cfg).unwrap().action_names();
-    let mut rec = SwarmRecorder::create(RecorderConfig::new(path)).unwrap();
     env.set_trace(Some(rec.frame_period_s()));
     let states = env.reset(5, 6).unwrap();
     let info = RunInfo {
@@ -102,10 +112,37 @@ fn record_swarm(world: &World, path: &Path) -> usize {
             }
         }
     }
-    let stats = rec.finish(true).unwrap();
-    assert!(stats.finished);
-    assert_eq!(stats.topics[topics::STEP].count, ROBOTS as u64 * DECISIONS);
     fed
+}
+
+/// The live view of a swarm: a client sees the arena and the bodies (latched), every
+/// robot's frame and its estimate's on `/tf`, and robots' steps, each message valid
+/// against the schema the server advertised.
+#[test]
+fn a_live_swarm_shows_every_robot_to_a_client() {
+    let world = common::world("paper-9x9");
+    let config = LiveConfig { channels: SWARM_LIVE, ..crate::live::local(0.0) };
+    let server = LiveServer::start(&config).unwrap();
+    let mut client = crate::live::Client::connect(server.addr());
+    let all: Vec<&str> = SWARM_CHANNELS.iter().map(|c| c.0).collect();
+    assert!(all.iter().all(|t| client.channels.contains_key(*t)), "{:?}", client.channels.keys());
+    client.subscribe(&all);
+    // The subscriptions reach the server before the run starts.
+    let _ = client.until(0.5, |_, _| false);
+    let mut rec = SwarmRecorder::live_only(RecorderConfig::new(""), server.tap());
+    drive(&world, &mut rec);
+    rec.finish(true).unwrap();
+    let (_, got) = client.until(3.0, |_, _| false);
+    let on = |t: &str| got.iter().filter(|g| g.0 == t).count();
+    assert!(on(topics::ARENA) >= 1 && on(topics::BODIES) >= 1, "no scenes");
+    assert!(on(topics::STEP) >= 1, "no steps");
+    let frames: std::collections::BTreeSet<&str> =
+        got.iter().filter(|g| g.0 == topics::TF).filter_map(|g| g.2["child_frame_id"].as_str()).collect();
+    for i in 0..ROBOTS {
+        assert!(frames.contains(format!("robot{i}").as_str()), "{frames:?}");
+        assert!(frames.contains(format!("robot{i}_estimate").as_str()), "{frames:?}");
+    }
+    server.stop();
 }
 
 #[test]
