@@ -361,7 +361,10 @@ fn sensitivity(
         paper::spec_source(o.specs.as_deref(), "paper-sensitivity"),
         paper::spec_source(o.specs.as_deref(), "paper-fig6")
     );
-    FigureSpec { file, figure: "The sensitivity table" }.varies_only(&cfgs, &["epsilon", "q0", "learner"])?;
+    let one_value =
+        "one value, the same in both files (the sensitivity table adds Fig. 6's setting to its own)";
+    FigureSpec { file, figure: "The sensitivity table", one_value }
+        .varies_only(&cfgs, &["epsilon", "q0", "learner"])?;
     let groups = run(cfgs, "ε, q0", stop, prog)?;
     let Some(first) = groups.first() else { return Ok(()) };
     let optimum = mmq_core::optimum(&first.cfg.load_world()?).gain;
@@ -458,7 +461,11 @@ fn fig6(
     let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
     let cfgs = paper::fig6_configs(o)?;
     let name = if o.env == EnvKind::Robot { "paper-fig6-robot" } else { "paper-fig6" };
-    let spec = FigureSpec { file: paper::spec_source(o.specs.as_deref(), name), figure: "Fig. 6" };
+    let spec = FigureSpec {
+        file: paper::spec_source(o.specs.as_deref(), name),
+        figure: "Fig. 6",
+        one_value: check::ONE_VALUE,
+    };
     let kinds: Vec<LearnerKind> = cfgs.iter().map(|c| c.learner.kind()).collect();
     if kinds.len() != 2 || !kinds.contains(&LearnerKind::Mmq) || !kinds.contains(&LearnerKind::Q) {
         return Err(spec.error(
@@ -574,6 +581,7 @@ fn horizon(
     let spec = FigureSpec {
         file: paper::spec_source(o.specs.as_deref(), "paper-horizon"),
         figure: "The horizon study",
+        one_value: check::ONE_VALUE,
     };
     spec.varies_only(&cfgs, &[])?;
     if cfgs.len() != 1 {

@@ -15,6 +15,9 @@ pub(super) struct FigureSpec {
     pub file: String,
     /// The figure, as the report names it (`Fig. 2`).
     pub figure: &'static str,
+    /// How to give a setting one value (`give \`epsilon\` one value`, or where the figure
+    /// joins two specs, the same value in both).
+    pub one_value: &'static str,
 }
 
 impl FigureSpec {
@@ -45,9 +48,8 @@ impl FigureSpec {
                 return Err(self.error(
                     f,
                     format!(
-                        "{} {what}, but this spec also varies `{f}`; give `{f}` one value \
-                         (a copy of the spec per value studies several)",
-                        self.figure
+                        "{} {what}, but this spec also varies `{f}`; give `{f}` {}",
+                        self.figure, self.one_value
                     ),
                 ));
             }
@@ -71,6 +73,9 @@ impl FigureSpec {
         Ok(())
     }
 }
+
+/// The fix for a setting that varies in a figure spec of its own.
+pub(super) const ONE_VALUE: &str = "one value (a copy of the spec per value studies several)";
 
 /// The settings in which two configurations differ, named as a spec names them.
 pub(crate) fn differing(a: &RunConfig, b: &RunConfig) -> Vec<&'static str> {
@@ -136,7 +141,7 @@ mod tests {
         let mut c = RunConfig { delay: "poisson:6".into(), ..a.clone() };
         c.learner.params.epsilon = 0.5;
         assert_eq!(differing(&a, &c), ["delay", "epsilon"]);
-        let spec = FigureSpec { file: "x.toml".into(), figure: "Fig. 2" };
+        let spec = FigureSpec { file: "x.toml".into(), figure: "Fig. 2", one_value: ONE_VALUE };
         let e = spec.varies_only(&[a.clone(), c], &["delay"]).unwrap_err().to_string();
         assert!(e.starts_with("x.toml: `epsilon`: Fig. 2 varies only `delay`"), "{e}");
         assert!(spec.varies_only(&[], &["delay"]).is_err());

@@ -12,7 +12,7 @@ use mmq_lab::paper::{self, Group, PaperOptions};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
 
-use super::check::FigureSpec;
+use super::check::{self, FigureSpec};
 use super::theirs::{self, Theirs};
 use super::{differs, run, series};
 use crate::{Doc, Progress, ReportError, axes};
@@ -50,26 +50,19 @@ pub(super) fn fig2(
     let (eps, q0) = theirs::EARLY_EPSILON_Q0;
     let refs =
         [(0.0, "100 %", "100 %"), (3.0, "falls", "≈ 85 %"), (10.0, "falls", "—"), (20.0, "lowest", "≈ 81 %")];
-    let shown: Vec<_> = refs
-        .iter()
-        .filter_map(|r| {
-            let at = pts.iter().zip(&groups).find(|(p, g)| p.0 == r.0 && theirs(r.0).is(&g.cfg))?;
-            Some((
-                theirs::only_if(true, r.1),
-                theirs::only_if(theirs(r.0).with(&at.1.cfg, eps, q0), r.2),
-                at.0,
-            ))
-        })
-        .collect();
-    if shown.is_empty() {
-        for (l, m) in &pts {
-            let _ = writeln!(rep.md, "| {} | — | — | {} |", axes::number(*l), pct(m));
+    // The paper's own plan (λ = 0 … 20 at its setting) lists the λ it comments on; any
+    // other plan lists every λ that ran, with their values where a point is theirs.
+    let paper_setting = groups.iter().zip(&means).all(|(g, m)| theirs(m.0).with(&g.cfg, eps, q0))
+        && pts.iter().map(|p| p.0).eq((0..=20).map(f64::from));
+    for (g, (l, m)) in groups.iter().zip(&pts) {
+        let r = refs.iter().find(|r| r.0 == *l && theirs(*l).is(&g.cfg));
+        if paper_setting && r.is_none() {
+            continue;
         }
-    }
-    for (paper_v, reference, (l, m)) in shown {
+        let (paper_v, reference) =
+            r.map_or(("—", "—"), |r| (r.1, theirs::only_if(theirs(*l).with(&g.cfg, eps, q0), r.2)));
         let _ = writeln!(rep.md, "| {} | {paper_v} | {reference} | {} |", axes::number(*l), pct(m));
     }
-    let paper_setting = groups.iter().zip(&means).all(|(g, m)| theirs(m.0).with(&g.cfg, eps, q0));
     if paper_setting {
         differs(
             rep,
@@ -116,7 +109,7 @@ fn check_fig2(cfgs: &[RunConfig], spec: &FigureSpec) -> Result<(), ReportError> 
 
 /// A figure spec as its checks name it: the edited file in `--specs`, or the built-in one.
 fn spec(o: &PaperOptions, name: &str, figure: &'static str) -> FigureSpec {
-    FigureSpec { file: paper::spec_source(o.specs.as_deref(), name), figure }
+    FigureSpec { file: paper::spec_source(o.specs.as_deref(), name), figure, one_value: check::ONE_VALUE }
 }
 
 pub(super) fn fig3(

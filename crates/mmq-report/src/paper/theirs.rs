@@ -64,7 +64,7 @@ pub(super) fn only_if(matches: bool, value: &'static str) -> &'static str {
 /// only where a setting matches.
 pub(super) fn variant_note(paper: &str) -> String {
     format!(
-        "this spec is not the paper's setting ({paper}); the paper's and the reference's values are shown \
-         only where a setting that ran is theirs, and are \"—\" elsewhere"
+        "this spec is not exactly the paper's setting ({paper}); the paper's and the reference's values are \
+         shown only where a setting that ran is theirs, and are \"—\" elsewhere."
     )
 }
