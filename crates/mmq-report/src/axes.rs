@@ -36,6 +36,11 @@ pub(crate) fn delay_words(cfg: &RunConfig) -> String {
     }
 }
 
+/// Whether a configuration's delay is Poisson (none counts as Poisson with λ = 0).
+pub(crate) fn is_poisson(cfg: &RunConfig) -> bool {
+    matches!(DelayDist::parse(&cfg.delay), Ok(DelayDist::Poisson(_) | DelayDist::None))
+}
+
 /// A configuration's delay as a setting line states it: `λ = 13` for a Poisson delay,
 /// the spec's own words for another distribution (`delay uniform:0:26`).
 pub(crate) fn lambda_words(cfg: &RunConfig) -> String {

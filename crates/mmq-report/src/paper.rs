@@ -487,8 +487,13 @@ fn fig6(
     let max_delay = mmq.cfg.learner.settings.max_delay().map_or(String::new(), |m| format!(", λ̂max = {m}"));
     let _ = writeln!(
         rep.md,
-        "\n## Fig. 6{}: MMQ vs Q-learning under Poisson delay (Section VII), {env}\n\nSetting: {size} {env}, {lambda}{max_delay}, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        "\n## Fig. 6{}: MMQ vs Q-learning under {} (Section VII), {env}\n\nSetting: {size} {env}, {lambda}{max_delay}, ε = {}, q0 = {}, {} steps, {} seeds.\n",
         if o.env == EnvKind::Robot { " on the robot" } else { "" },
+        if axes::is_poisson(&mmq.cfg) {
+            "Poisson delay".to_string()
+        } else {
+            format!("delay {}", mmq.cfg.delay)
+        },
         mmq.cfg.learner.params.epsilon,
         mmq.cfg.learner.params.q0,
         mmq.cfg.steps,

@@ -31,17 +31,22 @@ pub(super) fn fig2(
     let unit = means[0].1;
     let pts: Vec<(f64, MeanCi)> = means.iter().zip(&groups).map(|(m, g)| (m.0, g.relative())).collect();
     let size = axes::world_size(first)?;
+    let who = axes::learner_label(&first.cfg);
     let mut chart = LineChart::new(
-        format!("Fig. 2: {size} grid, Q-learning under Poisson delay"),
+        format!("Fig. 2: {size} grid, {who} under {}", delay_family(&groups)),
         format!("mean delay λ ({unit})"),
         "relative performance (%)",
     );
-    chart.series.push(series_f(&format!("Q-learning, {size}"), &pts, 100.0).with_markers());
+    chart.series.push(series_f(&format!("{who}, {size}"), &pts, 100.0).with_markers());
     chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
     let _ = writeln!(
         rep.md,
-        "\n## Fig. 2: effect of larger delays (Section IV-A)\n\nSetting: {size}, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds per λ.\n",
-        first.cfg.learner.params.epsilon, first.cfg.learner.params.q0, first.cfg.steps, first.cfg.seeds
+        "\n## Fig. 2: effect of larger delays (Section IV-A)\n\nSetting: {size}, {}, ε = {}, q0 = {}, {} steps, {} seeds per λ.\n",
+        plain(&first.cfg),
+        first.cfg.learner.params.epsilon,
+        first.cfg.learner.params.q0,
+        first.cfg.steps,
+        first.cfg.seeds
     );
     let _ = writeln!(rep.md, "| λ | paper | reference | ours |\n|---|---|---|---|");
     // The paper's points (Q-learning on its 3×3 under Poisson λ): its value and the
@@ -125,7 +130,6 @@ pub(super) fn fig3(
     let groups = run(cfgs, "fig 3", stop, prog)?;
     let Some(first) = groups.first() else { return Ok(()) };
     let names = axes::world_labels(&groups)?;
-    let lambda_v = axes::mean_delay(first)?.0;
     // The paper's setting (Q-learning under Poisson(5) on its worlds); the reference's
     // values by world, at its ε and q0.
     let theirs =
@@ -140,9 +144,9 @@ pub(super) fn fig3(
             _ => "—",
         }
     };
-    let lambda = axes::number(lambda_v);
+    let lambda = axes::lambda_words(&first.cfg);
     let mut chart = LineChart::new(
-        format!("Fig. 3: Q-learning, λ = {lambda}, growing worlds"),
+        format!("Fig. 3: {}, {lambda}, growing worlds", axes::learner_label(&first.cfg)),
         "step",
         "relative performance (%)",
     );
@@ -150,8 +154,12 @@ pub(super) fn fig3(
     let mut absent = Vec::new();
     let _ = writeln!(
         rep.md,
-        "\n## Fig. 3: effect of environment size (Section IV-B)\n\nSetting: λ = {lambda}, plain Q-learning, ε = {}, q0 = {}, {} steps, {} seeds.\n",
-        first.cfg.learner.params.epsilon, first.cfg.learner.params.q0, first.cfg.steps, first.cfg.seeds
+        "\n## Fig. 3: effect of environment size (Section IV-B)\n\nSetting: {lambda}, {}, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        plain(&first.cfg),
+        first.cfg.learner.params.epsilon,
+        first.cfg.learner.params.q0,
+        first.cfg.steps,
+        first.cfg.seeds
     );
     let _ = writeln!(rep.md, "| world | paper | reference | ours (end) |\n|---|---|---|---|");
     let paper_worlds = ["paper-3x3", "paper-5x5", "paper-9x9"];
@@ -194,10 +202,7 @@ pub(super) fn fig3(
     }
     chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
     chart.y_range = Some((-20.0, 140.0));
-    rep.figure(
-        chart.write(&rep.path("fig3"))?,
-        &format!("Fig. 3: relative performance over time, λ = {lambda}"),
-    );
+    rep.figure(chart.write(&rep.path("fig3"))?, &format!("Fig. 3: relative performance over time, {lambda}"));
     rep.csv("fig3.csv", &paper::curve_csv("world", &rows))
 }
 
@@ -237,8 +242,8 @@ pub(super) fn fig4(
     });
     let _ = writeln!(
         rep.md,
-        "\n## Fig. 4: errors in the delay estimate (Section V)\n\nSetting: {size}, Poisson λ = {}, fixed-delay Q (eq. 4) with λ̂ = λ + i, ε = {}, q0 = {}, {} steps, {} seeds per i.\n",
-        axes::number(lambda),
+        "\n## Fig. 4: errors in the delay estimate (Section V)\n\nSetting: {size}, {}, fixed-delay Q (eq. 4) with λ̂ = λ + i, ε = {}, q0 = {}, {} steps, {} seeds per i.\n",
+        axes::delay_words(&first.cfg),
         first.cfg.learner.params.epsilon,
         first.cfg.learner.params.q0,
         first.cfg.steps,
@@ -321,6 +326,21 @@ fn check_fig4(cfgs: &[RunConfig], spec: &FigureSpec) -> Result<(), ReportError> 
         "lambda_hat",
         &cfgs.iter().filter_map(axes::lambda_hat_of).map(|h| format!("λ̂ = {h}")).collect::<Vec<_>>(),
     )
+}
+
+/// The learner of Figs. 2 and 3 as their setting line names it: `plain Q-learning`, or
+/// another learner by its label.
+fn plain(cfg: &RunConfig) -> String {
+    match cfg.learner.kind() {
+        LearnerKind::Q => "plain Q-learning".into(),
+        _ => axes::learner_label(cfg),
+    }
+}
+
+/// The delays of Fig. 2 as its title names them: `Poisson delay` where every one is, else
+/// `delays of mean λ`.
+fn delay_family(groups: &[Group]) -> &'static str {
+    if groups.iter().all(|g| axes::is_poisson(&g.cfg)) { "Poisson delay" } else { "delays of mean λ" }
 }
 
 /// An integer with its sign as the paper writes it (`−10`, `+10`, `0`).
