@@ -122,6 +122,16 @@ fn fig2_on_another_world_shows_no_paper_values() {
 }
 
 #[test]
+fn fig2_names_the_learner_that_ran() {
+    let spec =
+        edited("paper-fig2", "delay", &delays(&[0, 4])).replace("learner = \"q\"", "learner = \"mmq\"");
+    let (_d, out) = run("2", &[("paper-fig2", spec)]);
+    let report = std::fs::read_to_string(out.unwrap().join("report.md")).unwrap();
+    assert!(report.contains("Setting: 3×3, MMQ (λ̂max = 50), ε = 0.05"), "{report}");
+    assert!(rows(&report, "## Fig. 2").iter().all(|r| r.contains("| — | — |")), "{report}");
+}
+
+#[test]
 fn fig3_is_labelled_by_each_world_for_two_and_for_four_worlds() {
     for (worlds, labels) in [
         (vec!["paper-3x3", "paper-5x5"], vec!["3×3", "5×5"]),
@@ -195,6 +205,14 @@ fn a_spec_that_cannot_make_its_figure_is_refused_with_its_file_and_field() {
         msg.contains("paper-fig4.toml: `learner`: Fig. 4's axis is the `fixed` learner's `lambda_hat`"),
         "{msg}"
     );
+    // The sensitivity table joins its spec with Fig. 6's: one world for both.
+    let sens = edited("paper-sensitivity", "world", "world = \"paper-5x5\"");
+    let msg = run("sens", &[("paper-sensitivity", sens)]).1.unwrap_err().to_string();
+    assert!(msg.contains("paper-sensitivity.toml (with the built-in paper-fig6.toml): `world`:"), "{msg}");
+    // The horizon study runs one setting.
+    let horizon = edited("paper-horizon", "learner", "learner = [\"mmq\", \"q\"]");
+    let msg = run("6", &[("paper-horizon", horizon)]).1.unwrap_err().to_string();
+    assert!(msg.contains("paper-horizon.toml: `learner`: The horizon study runs one setting"), "{msg}");
     // Fig. 6 compares MMQ with Q-learning.
     let fig6 = edited("paper-fig6", "learner", "learner = [\"mmq\", \"q\", \"q-lambda\"]");
     let msg = run("6", &[("paper-fig6", fig6)]).1.unwrap_err().to_string();
