@@ -217,7 +217,7 @@ pub fn figure_spec(folder: Option<&Path>, name: &str) -> Result<SweepSpec, LabEr
             message: "not a folder; give the folder that holds your copies of figure specs (e.g. an edited paper-fig6.toml)".into(),
         });
     }
-    if let Some(file) = folder.map(|d| d.join(format!("{name}.toml"))).filter(|f| f.exists()) {
+    if let Some(file) = edited_spec(folder, name) {
         return SweepSpec::load(&file);
     }
     let text = SPECS.iter().find(|s| s.0 == name).map(|s| s.1).ok_or_else(|| LabError::Config {
@@ -228,6 +228,17 @@ pub fn figure_spec(folder: Option<&Path>, name: &str) -> Result<SweepSpec, LabEr
         ),
     })?;
     SweepSpec::parse(text, Path::new(&format!("{name}.toml")))
+}
+
+/// The file in `folder` that replaces the built-in figure spec `name`, if there is one.
+pub fn edited_spec(folder: Option<&Path>, name: &str) -> Option<PathBuf> {
+    folder.map(|d| d.join(format!("{name}.toml"))).filter(|f| f.exists())
+}
+
+/// The figure spec `name` as a message names it: the edited file in `folder`, or the
+/// built-in copy.
+pub fn spec_source(folder: Option<&Path>, name: &str) -> String {
+    edited_spec(folder, name).map_or_else(|| format!("the built-in {name}.toml"), |f| f.display().to_string())
 }
 
 /// A spec cell's configuration at a budget: its steps and curve window scaled by

@@ -6,24 +6,66 @@
 use std::path::Path;
 
 use mmq_core::{DelayDist, DelayUnit};
+use mmq_lab::RunConfig;
 use mmq_lab::paper::Group;
 use mmq_learn::LearnerSettings;
 
 use crate::ReportError;
 
-/// The delay a group ran under, parsed from its configuration.
-pub(crate) fn delay(g: &Group) -> Result<DelayDist, ReportError> {
-    Ok(g.cfg.validate()?)
-}
-
 /// The mean delay of a group, and its unit's short name.
 pub(crate) fn mean_delay(g: &Group) -> Result<(f64, &'static str), ReportError> {
-    let d = delay(g)?;
+    mean_delay_of(&g.cfg)
+}
+
+/// The mean delay of a configuration, and its unit's short name.
+pub(crate) fn mean_delay_of(cfg: &RunConfig) -> Result<(f64, &'static str), ReportError> {
+    let d = DelayDist::parse(&cfg.delay).map_err(mmq_lab::LabError::from)?;
     let unit = match d.unit() {
         DelayUnit::Steps => "steps",
         DelayUnit::Seconds => "s",
     };
     Ok((d.mean(), unit))
+}
+
+/// A configuration's delay as a heading states it: `Poisson λ = 13`, or the spec's own
+/// words for another distribution (`delay uniform:0:26`).
+pub(crate) fn delay_words(cfg: &RunConfig) -> String {
+    match DelayDist::parse(&cfg.delay) {
+        Ok(DelayDist::Poisson(l)) => format!("Poisson λ = {}", number(l)),
+        _ => format!("delay {}", cfg.delay),
+    }
+}
+
+/// Whether a configuration's delay is Poisson (none counts as Poisson with λ = 0).
+pub(crate) fn is_poisson(cfg: &RunConfig) -> bool {
+    matches!(DelayDist::parse(&cfg.delay), Ok(DelayDist::Poisson(_) | DelayDist::None))
+}
+
+/// A configuration's delay as a setting line states it: `λ = 13` for a Poisson delay,
+/// the spec's own words for another distribution (`delay uniform:0:26`).
+pub(crate) fn lambda_words(cfg: &RunConfig) -> String {
+    match DelayDist::parse(&cfg.delay) {
+        Ok(DelayDist::Poisson(l)) => format!("λ = {}", number(l)),
+        _ => format!("delay {}", cfg.delay),
+    }
+}
+
+/// A world's size as the paper writes it (`9×9`), from a configuration.
+pub(crate) fn world_size_of(cfg: &RunConfig) -> Result<String, ReportError> {
+    let w = cfg.load_world()?;
+    Ok(format!("{}×{}", w.width, w.height))
+}
+
+/// A learner's name as the report writes it (`MMQ`, `Q-learning`, or the learner's own
+/// name), with MMQ's largest delay where it has one (`MMQ (λ̂max = 50)`).
+pub(crate) fn learner_label(cfg: &RunConfig) -> String {
+    use mmq_learn::LearnerKind;
+    match (cfg.learner.kind(), cfg.learner.settings.max_delay()) {
+        (LearnerKind::Mmq, Some(m)) => format!("MMQ (λ̂max = {m})"),
+        (LearnerKind::Q, _) => "Q-learning".into(),
+        (k, Some(m)) => format!("{} (λ̂max = {m})", k.name()),
+        (k, None) => k.name().into(),
+    }
 }
 
 /// A number as a label: whole numbers without a decimal point (`3`, not `3.0`).
@@ -33,15 +75,19 @@ pub(crate) fn number(x: f64) -> String {
 
 /// The world file's stem (`paper-3x3`), the name a spec gives it.
 pub(crate) fn world_stem(g: &Group) -> String {
-    Path::new(&g.cfg.world)
+    world_stem_of(&g.cfg)
+}
+
+/// The world file's stem of a configuration.
+pub(crate) fn world_stem_of(cfg: &RunConfig) -> String {
+    Path::new(&cfg.world)
         .file_stem()
-        .map_or_else(|| g.cfg.world.display().to_string(), |s| s.to_string_lossy().into())
+        .map_or_else(|| cfg.world.display().to_string(), |s| s.to_string_lossy().into())
 }
 
 /// A world's size as the paper writes it (`3×3`: width × height).
 pub(crate) fn world_size(g: &Group) -> Result<String, ReportError> {
-    let w = g.cfg.load_world()?;
-    Ok(format!("{}×{}", w.width, w.height))
+    world_size_of(&g.cfg)
 }
 
 /// One label per group naming its world: the size where every group's size differs
@@ -58,7 +104,12 @@ pub(crate) fn world_labels(groups: &[Group]) -> Result<Vec<String>, ReportError>
 
 /// The fixed delay estimate λ̂ of a group's `fixed` learner, if it is one.
 pub(crate) fn lambda_hat(g: &Group) -> Option<u64> {
-    match &g.cfg.learner.settings {
+    lambda_hat_of(&g.cfg)
+}
+
+/// The fixed delay estimate λ̂ of a configuration's `fixed` learner, if it is one.
+pub(crate) fn lambda_hat_of(cfg: &RunConfig) -> Option<u64> {
+    match &cfg.learner.settings {
         LearnerSettings::Fixed(s) => Some(s.lambda_hat as u64),
         _ => None,
     }

@@ -39,6 +39,16 @@ pub enum ReportError {
         "`fig` `{0}` is not a figure; use 2, 3, 4, 6, 7, 8, 9, 10, 11, 12, sens, comparison or all (comma-separated)"
     )]
     UnknownFigure(String),
+    /// A figure spec that cannot make its figure: the file, the field and what to change.
+    #[error("{file}: `{field}`: {message}")]
+    FigureSpec {
+        /// The spec file (an edited copy, or the built-in one).
+        file: String,
+        /// The spec's field.
+        field: String,
+        /// What is wrong and the fix.
+        message: String,
+    },
     /// A report was asked of no sweep directory.
     #[error("give a sweep output directory")]
     NoSweep,
@@ -51,7 +61,7 @@ impl ReportError {
         match self {
             ReportError::Lab(e) => e.is_input_error(),
             ReportError::Plot(_) => false,
-            ReportError::UnknownFigure(_) | ReportError::NoSweep => true,
+            ReportError::UnknownFigure(_) | ReportError::NoSweep | ReportError::FigureSpec { .. } => true,
         }
     }
 
@@ -60,7 +70,7 @@ impl ReportError {
         match self {
             ReportError::Lab(e) => e.names_fields(),
             ReportError::UnknownFigure(_) => true,
-            ReportError::Plot(_) | ReportError::NoSweep => false,
+            ReportError::Plot(_) | ReportError::NoSweep | ReportError::FigureSpec { .. } => false,
         }
     }
 }

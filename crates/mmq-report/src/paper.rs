@@ -16,10 +16,16 @@ use mmq_lab::paper::{self, Group, PaperOptions};
 use mmq_learn::LearnerKind;
 use mmq_plot::{ActionProbabilities, GridHeatmap, LineChart, PolicyArrows, RefLine, Series};
 
-use crate::{Doc, Progress, ReportError};
+use crate::{Doc, Progress, ReportError, axes};
 
+mod check;
 mod early;
+mod fig6_studies;
+mod theirs;
+use check::FigureSpec;
 use early::{fig2, fig3, fig4, series_f};
+use fig6_studies::{horizon, sensitivity};
+use theirs::Theirs;
 
 /// A headline row: label, paper's value, reference value, ours from (groups, optimum).
 type HeadlineRow = (&'static str, &'static str, &'static str, Box<dyn Fn(&[Group], f64) -> String>);
@@ -196,10 +202,23 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
         }
     }
     if !headline.is_empty() {
-        let mut t = String::from(
-            "\n## Headline (Fig. 6 and Section VII-A): 9×9, Poisson λ = 13, λ̂max = 50, α = 0.1, γ = 0.9\n\n\
+        let c = &headline[0].1[0].cfg;
+        let max_delay = c.learner.settings.max_delay().map_or(String::new(), |m| format!(", λ̂max = {m}"));
+        let mut t = format!(
+            "\n## Headline (Fig. 6 and Section VII-A): {}, {}{max_delay}, α = {}, γ = {}\n\n\
              | quantity | paper | reference | ",
+            axes::world_size_of(c)?,
+            axes::delay_words(c),
+            c.learner.params.alpha,
+            c.learner.params.gamma
         );
+        // The paper's values where every column ran its setting; the reference's where
+        // also at the reference's ε 0.01 and q0 20.
+        let paper_setting = headline.iter().all(|h| fig6_is_theirs(&h.1));
+        let reference_setting = paper_setting
+            && headline.iter().all(|h| {
+                h.1.iter().all(|g| (g.cfg.learner.params.epsilon, g.cfg.learner.params.q0) == (0.01, 20.0))
+            });
         for (env, g, _) in &headline {
             let _ =
                 write!(t, "ours, {} ({} seeds × {} steps) | ", env.name(), g[0].cfg.seeds, g[0].cfg.steps);
@@ -265,11 +284,22 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
             ),
         ];
         for (label, paper_v, reference, f) in rows.iter() {
+            let (paper_v, reference) =
+                (theirs::only_if(paper_setting, paper_v), theirs::only_if(reference_setting, reference));
             let _ = write!(t, "| {label} | {paper_v} | {reference} | ");
             for (_, g, o) in &headline {
                 let _ = write!(t, "{} | ", f(g, *o));
             }
             t.push('\n');
+        }
+        if !paper_setting {
+            let _ = writeln!(
+                t,
+                "\nThe paper's and the reference's values are \"—\": {}",
+                theirs::variant_note(
+                    "MMQ and Q-learning on paper-9x9 under Poisson λ = 13, λ̂max = 50, α 0.1, γ 0.9"
+                )
+            );
         }
         let horizon = headline[0].1[0].cfg.steps;
         let _ = writeln!(
@@ -321,77 +351,6 @@ fn run(
     Ok(groups)
 }
 
-fn sensitivity(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let groups = run(paper::sensitivity_configs(o)?, "ε, q0", stop, prog)?;
-    let optimum = paper::optimum_of(o, "paper-9x9")?;
-    let _ = writeln!(
-        rep.md,
-        "\n## Sensitivity of Fig. 6 to the unstated ε and q0 (grid)\n\n9×9, λ = 13, λ̂max = 50, {} steps, {} seeds.\n",
-        o.steps, o.seeds
-    );
-    let _ = writeln!(
-        rep.md,
-        "| ε | q0 | learner | relative | reference | fraction of optimum | greedy evaluation |\n|---|---|---|---|---|---|---|"
-    );
-    // The independent reference measurements, by ε, q0 and learner.
-    let refs = [
-        (0.05, 10.0, LearnerKind::Mmq, "74 ± 2 %"),
-        (0.05, 10.0, LearnerKind::Q, "−2 ± 2 %"),
-        (0.02, 10.0, LearnerKind::Mmq, "89 ± 2 %"),
-        (0.02, 10.0, LearnerKind::Q, "−2 %"),
-        (0.01, 20.0, LearnerKind::Mmq, "99 ± 3 %"),
-        (0.01, 20.0, LearnerKind::Q, "−4 %"),
-    ];
-    let mut csv = String::from(
-        "epsilon,q0,learner,relative,relative_ci95,fraction,fraction_ci95,greedy,greedy_ci95,n\n",
-    );
-    for g in &groups {
-        let p = g.cfg.learner.params;
-        let r = refs
-            .iter()
-            .find(|r| (r.0, r.1, r.2) == (p.epsilon, p.q0, g.cfg.learner.kind()))
-            .map_or("—", |r| r.3);
-        let (rel, frac, gr) = (g.relative(), g.fraction(optimum), g.greedy());
-        let _ = writeln!(
-            rep.md,
-            "| {} | {} | {} | {} | {r} | {} | {} |",
-            p.epsilon,
-            p.q0,
-            g.cfg.learner.kind().name(),
-            pct(&rel),
-            pct(&frac),
-            num(&gr)
-        );
-        let _ = writeln!(
-            csv,
-            "{},{},{},{},{},{},{},{},{},{}",
-            p.epsilon,
-            p.q0,
-            g.cfg.learner.kind().name(),
-            rel.mean,
-            rel.ci95,
-            frac.mean,
-            frac.ci95,
-            gr.mean,
-            gr.ci95,
-            rel.n
-        );
-    }
-    rep.md.push('\n');
-    differs(
-        rep,
-        "the paper states neither ε nor q0. Its ≈ 95 % for MMQ is reached only with little exploration \
-         (ε ≤ 0.02) and an optimistic q0; at ε = 0.05 a faithful MMQ stays near 74 % (docs/algorithms/mmq.md \
-         explains why: the target's max over 51 × 4 noisy estimates).",
-    );
-    rep.csv("sensitivity.csv", &csv)
-}
-
 fn fig6(
     o: &PaperOptions,
     rep: &mut Doc,
@@ -400,37 +359,59 @@ fn fig6(
 ) -> Result<(Vec<Group>, f64), ReportError> {
     let env = o.env.name();
     let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
-    let mut groups = run(paper::fig6_configs(o)?, &format!("fig 6 {env}"), stop, prog)?;
+    let cfgs = paper::fig6_configs(o)?;
+    let name = if o.env == EnvKind::Robot { "paper-fig6-robot" } else { "paper-fig6" };
+    let spec = FigureSpec {
+        file: paper::spec_source(o.specs.as_deref(), name),
+        figure: "Fig. 6",
+        one_value: check::ONE_VALUE,
+    };
+    let kinds: Vec<LearnerKind> = cfgs.iter().map(|c| c.learner.kind()).collect();
+    if kinds.len() != 2 || !kinds.contains(&LearnerKind::Mmq) || !kinds.contains(&LearnerKind::Q) {
+        return Err(spec.error(
+            "learner",
+            format!(
+                "Fig. 6 compares exactly two settings, `mmq` and `q`, but this spec runs {}; set `learner = [\"mmq\", \"q\"]`",
+                kinds.iter().map(|k| format!("`{}`", k.name())).collect::<Vec<_>>().join(", ")
+            ),
+        ));
+    }
+    spec.varies_only(&cfgs, &["learner"])?;
+    let mut groups = run(cfgs, &format!("fig 6 {env}"), stop, prog)?;
     // MMQ first, then Q-learning, whatever the spec's order.
     groups.sort_by_key(|g| g.cfg.learner.kind() != LearnerKind::Mmq);
-    if groups.len() != 2 || groups[1].cfg.learner.kind() != LearnerKind::Q {
-        return Err(ReportError::Lab(mmq_lab::LabError::Config {
-            file: format!("the Fig. 6 spec ({env})"),
-            message: "Fig. 6 compares exactly two settings, `mmq` and `q`".into(),
-        }));
-    }
-    let world = paper::world_of(o, "paper-9x9")?;
+    let world = groups[0].cfg.load_world()?;
     let optimum = mmq_core::optimum(&world).gain;
     let (mmq, q) = (&groups[0], &groups[1]);
+    let (size, lambda) = (axes::world_size_of(&mmq.cfg)?, axes::lambda_words(&mmq.cfg));
+    let max_delay = mmq.cfg.learner.settings.max_delay().map_or(String::new(), |m| format!(", λ̂max = {m}"));
     let _ = writeln!(
         rep.md,
-        "\n## Fig. 6{}: MMQ vs Q-learning under Poisson delay (Section VII), {env}\n\nSetting: 9×9 {env}, λ = 13, λ̂max = 50, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        "\n## Fig. 6{}: MMQ vs Q-learning under {} (Section VII), {env}\n\nSetting: {size} {env}, {lambda}{max_delay}, ε = {}, q0 = {}, {} steps, {} seeds.\n",
         if o.env == EnvKind::Robot { " on the robot" } else { "" },
+        if axes::is_poisson(&mmq.cfg) {
+            "Poisson delay".to_string()
+        } else {
+            format!("delay {}", mmq.cfg.delay)
+        },
         mmq.cfg.learner.params.epsilon,
         mmq.cfg.learner.params.q0,
-        o.steps,
-        o.seeds
+        mmq.cfg.steps,
+        mmq.cfg.seeds
     );
+    let paper_setting = fig6_is_theirs(&groups);
     let (cm, cq) = (mmq.relative_curve(), q.relative_curve());
     let mut chart = LineChart::new(
-        format!("Fig. 6{sfx}: 9×9 {env}, λ = 13: MMQ vs Q-learning"),
+        format!("Fig. 6{sfx}: {size} {env}, {lambda}: MMQ vs Q-learning"),
         if o.env == EnvKind::Robot { "primitive" } else { "step" },
         "relative performance (%)",
     );
-    chart.series.push(series("MMQ (λ̂max = 50)", &cm, 100.0));
+    chart.series.push(series(&axes::learner_label(&mmq.cfg), &cm, 100.0));
     chart.series.push(series("Q-learning", &cq, 100.0));
     chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
-    chart.ref_lines.push(RefLine::new("paper: MMQ ≈ 95 %", 95.0));
+    if paper_setting {
+        chart.ref_lines.push(RefLine::new("paper: MMQ ≈ 95 %", 95.0));
+    }
     // Early ratios divide by a baseline that has earned almost nothing yet; clip them.
     chart.y_range = Some((-60.0, 200.0));
     rep.figure(
@@ -456,7 +437,9 @@ fn fig6(
     for (n, c) in &curves {
         chart.series.push(series(n, c, 1.0));
     }
-    chart.ref_lines.push(RefLine::new("exact optimum 10/17", optimum));
+    let exact =
+        if axes::world_stem_of(&mmq.cfg) == "paper-9x9" { "10/17".into() } else { format!("{optimum:.3}") };
+    chart.ref_lines.push(RefLine::new(format!("exact optimum {exact}"), optimum));
     rep.figure(
         chart.write(&rep.path(&format!("fig6-rewards{sfx}")))?,
         &format!("Fig. 6{sfx}: earned (emitted) and received (delivered) reward per step"),
@@ -479,56 +462,16 @@ fn fig6(
     Ok((groups, optimum))
 }
 
+/// Whether Fig. 6's two groups (MMQ, then Q-learning) are the paper's setting: its 9×9
+/// world, Poisson λ = 13, λ̂max = 50, α 0.1, γ 0.9 (it states no ε or q0).
+fn fig6_is_theirs(groups: &[Group]) -> bool {
+    let of = |learner| Theirs { world: "paper-9x9", learner, lambda: 13.0 };
+    matches!(groups, [m, q] if of(LearnerKind::Mmq).is(&m.cfg) && of(LearnerKind::Q).is(&q.cfg))
+}
+
 /// "Where we differ from the paper" next to a figure.
 fn differs(rep: &mut Doc, text: &str) {
     let _ = writeln!(rep.md, "\n**Where we differ from the paper:** {text}\n");
-}
-
-/// Relative performance against the horizon: Fig. 6's MMQ setting run for several times
-/// its steps, read at every horizon up to that.
-fn horizon(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let groups = run(paper::horizon_configs(o)?, "horizon", stop, prog)?;
-    let curve = groups[0].relative_curve();
-    let factor = groups[0].cfg.steps / o.steps.max(1);
-    let _ = writeln!(
-        rep.md,
-        "\n## Relative performance depends on the horizon\n\n\
-         Fig. 6's MMQ setting (9×9 grid, λ = 13, ε = {}, q0 = {}, {} seeds) run for {} × its {} steps. Relative \
-         performance at horizon T is cumulative earned reward up to T ÷ that of undelayed Q-learning up to T; the \
-         baseline is itself still learning, so the ratio moves with T. Every headline number states its horizon.\n",
-        groups[0].cfg.learner.params.epsilon,
-        groups[0].cfg.learner.params.q0,
-        groups[0].cfg.seeds,
-        factor,
-        o.steps
-    );
-    let mut t = String::from("| horizon (steps) | MMQ relative performance |\n|---|---|\n");
-    for k in 1..=factor {
-        let at = o.steps * k;
-        if let Some((step, m)) = curve.iter().rev().find(|(s, _)| *s <= at) {
-            let _ = writeln!(t, "| {step} | {} |", pct(m));
-        }
-    }
-    rep.md.push_str(&t);
-    let mut chart = LineChart::new(
-        "MMQ against the horizon, 9×9, λ = 13",
-        "horizon T (steps)",
-        "relative performance up to T (%)",
-    );
-    chart.series.push(series("MMQ (λ̂max = 50)", &curve, 100.0));
-    chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
-    chart.ref_lines.push(RefLine::new("paper: MMQ ≈ 95 %", 95.0));
-    chart.y_range = Some((0.0, 200.0));
-    rep.figure(
-        chart.write(&rep.path("horizon"))?,
-        "Relative performance against the horizon (the ratio at the paper's horizon is the headline)",
-    );
-    rep.csv("horizon.csv", &paper::curve_csv("learner", &[("mmq".into(), curve)]))
 }
 
 /// Steps shown by the reward-timing figure.
