@@ -64,6 +64,13 @@ fn swarm_config(world: &World, swarm: Option<&Bound<'_, PyDict>>) -> PyResult<Sw
                     format!("not a field of the swarm; use one of {}", SWARM_FIELDS.join(", ")),
                 ));
             }
+            if key == "learners" {
+                return Err(config_err(
+                    &key,
+                    "the lab's `mmq run` assigns its own learners with it; here your agents act for the \
+                     robots (one policy for all of them is parameter sharing): leave it out",
+                ));
+            }
             if v.is_none() {
                 continue;
             }

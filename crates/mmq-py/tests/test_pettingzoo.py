@@ -223,6 +223,7 @@ def test_render_ansi():
         ({"loss": 1.5}, "loss"),
         ({"starts": [[1, 1]]}, "starts"),
         ({"colour": "red"}, "colour"),
+        ({"learners": "shared"}, "learners"),
         ({"robot": {"max_speed_mps": -1.0}}, "robot"),
         ({"robot": ["nonsense=1"]}, "robot"),
         ({"robot": 3}, "robot"),
