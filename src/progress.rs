@@ -35,14 +35,6 @@ impl Bars {
         Bars { quiet, current: RwLock::new(None) }
     }
 
-    /// A line of progress on stderr (a finished job), with the bar out of the way; not
-    /// shown when quiet (notices are).
-    pub fn line(&self, text: &str) {
-        if !self.quiet {
-            mmq_report::Progress::notice(self, text);
-        }
-    }
-
     fn current(&self) -> RwLockReadGuard<'_, Option<Mode>> {
         self.current.read().unwrap_or_else(PoisonError::into_inner)
     }
@@ -96,5 +88,17 @@ impl mmq_report::Progress for Bars {
             Some(Mode::Bar(pb)) => pb.suspend(|| eprintln!("{text}")),
             _ => eprintln!("{text}"),
         }
+    }
+
+    /// A notice, except when quiet.
+    fn line(&self, text: &str) {
+        if !self.quiet {
+            self.notice(text);
+        }
+    }
+
+    /// On stdout.
+    fn say(&self, text: &str) {
+        print!("{text}");
     }
 }

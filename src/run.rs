@@ -1,13 +1,13 @@
-//! `mmq run`: flags → validated `RunConfig` → config.toml → seeds in parallel →
-//! summary.json, metrics.csv, policy.csv, Q-tables; a short table on stdout
-//! (`mmq_report::text`).
+//! `mmq run`: flags → validated `RunConfig` → the run (`mmq_report::run`: config.toml,
+//! seeds in parallel, summary.json, metrics.csv, policy.csv, Q-tables; a short table on
+//! stdout).
 
 use std::sync::atomic::AtomicBool;
 
+use mmq_lab::RunConfig;
 use mmq_lab::config::EnvKind;
-use mmq_lab::{Control, RunConfig};
 use mmq_learn::spec::Params;
-use mmq_report::Progress as _;
+use mmq_report::live::LiveOptions;
 
 use crate::Failure;
 use crate::cli::{EnvArg, RunArgs};
@@ -79,32 +79,11 @@ pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
             "--live: the live view shows one robot; record the swarm (--record) and open the file in Foxglove".to_string(),
         ));
     }
-    let world = cfg.load_world()?;
-    // Before anything is written: a bad address or a port in use stops here.
-    let live = crate::live::start(&a, &cfg)?;
-    let pb = Bars::new(a.quiet);
-    pb.begin(cfg.total_steps(), cfg.learner.kind().name());
-    let progress = |n: u64| pb.advance(n);
-    let ctl = Control { stop, progress: &progress };
-    let claimed = |replaced: usize| {
-        // Said also under -q: files are removed.
-        if replaced > 0 {
-            eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
-        }
-    };
-    let written = mmq_lab::record::run_recorded(&a.out, &cfg, &world, live, ctl, &claimed);
-    pb.end();
-    let written = written?;
-    print!("{}", mmq_report::text::run_summary(&written.summary));
-    // The summary says incomplete; the exit code and one message per lost file say why.
-    written.check(&a.out)?;
-    if written.interrupted {
-        eprintln!("{}", mmq_report::terminal::run_interrupted(&written, &a.out));
-    } else {
-        // A stop that came while the finished run's outputs were written changed nothing:
-        // the summary says complete, so the exit code says success, not 130.
+    let live = a.live.map(|addr| LiveOptions { addr, speed: a.live_speed, wait: a.live_wait });
+    // A stop that came while the finished run's outputs were written changed nothing: the
+    // summary says complete, so the exit code says success, not 130.
+    if !mmq_report::run::run(&cfg, &a.out, live.as_ref(), stop, &Bars::new(a.quiet))? {
         stop.store(false, std::sync::atomic::Ordering::SeqCst);
-        println!("wrote {}", a.out.display());
     }
     Ok(())
 }

@@ -27,6 +27,13 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("out", "--out"),
     ("fig", "--fig"),
     ("threads", "--threads"),
+    ("live", "--live"),
+    ("live_speed", "--live-speed"),
+    ("live_wait", "--live-wait"),
+    ("serve", "--serve"),
+    ("render", "--render"),
+    ("from", "--from"),
+    ("to", "--to"),
 ];
 
 fn rewrite(text: &str, to: impl Fn(&str, &str) -> String) -> String {
