@@ -10,12 +10,13 @@ use mmq_learn::spec::Params;
 use mmq_report::live::LiveOptions;
 
 use crate::Failure;
-use crate::cli::{EnvArg, RunArgs};
+use crate::cli::RunArgs;
 use crate::progress::Bars;
 
 /// Stage two of the flags: a validated configuration.
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
-    // Only the settings given are set; one the learner does not have is an error.
+    // Only the settings given are set; one the learner does not have, or one given twice,
+    // is an error.
     let int = |x: usize| toml::Value::Integer(x.min(i64::MAX as usize) as i64);
     let mut given = vec![
         ("max_delay", a.max_delay.map(int)),
@@ -24,24 +25,17 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
     ];
     for kv in &a.set {
         let (key, value) = setting(kv)?;
-        if given.iter().any(|(k, v)| *k == key && v.is_some()) {
-            return Err(crate::input_error(format!("`{key}` is given twice; give it once")));
-        }
         given.push((key, Some(value)));
     }
     let params = Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 };
     let learner = mmq_lab::settings::learner(&a.learner, params, &given)?;
+    // `EnvArg` lists the fidelities in `EnvKind`'s order.
+    let env = [EnvKind::Grid, EnvKind::Robot, EnvKind::Swarm][a.env as usize];
     let cfg = RunConfig {
         world: a.world.clone(),
-        env: match a.env {
-            EnvArg::Grid => EnvKind::Grid,
-            EnvArg::Robot => EnvKind::Robot,
-            EnvArg::Swarm => EnvKind::Swarm,
-        },
+        env,
         learner,
-        delay: a.delay.clone().unwrap_or_else(|| {
-            if matches!(a.env, EnvArg::Swarm) { "none" } else { "poisson:13" }.to_string()
-        }),
+        delay: a.delay.clone().unwrap_or_else(|| env.default_delay().to_string()),
         steps: a.steps,
         seed: a.seed,
         seeds: a.seeds,

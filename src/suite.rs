@@ -12,16 +12,9 @@ use mmq_report::suite_run;
 use crate::Failure;
 use crate::progress::Bars;
 
-/// Flags of `mmq suite` (see docs/suite.md).
-#[derive(Debug, Args)]
-pub struct SuiteArgs {
-    #[command(subcommand)]
-    action: SuiteAction,
-}
-
 /// Where a tier runs: shared by `suite run` and `suite reference`.
 #[derive(Debug, Args)]
-struct TierRun {
+pub struct TierRun {
     /// The tier: lite (minutes) or full (the paper's budget).
     #[arg(long)]
     tier: String,
@@ -39,8 +32,9 @@ struct TierRun {
     quiet: bool,
 }
 
+/// What `mmq suite` does (see docs/suite.md).
 #[derive(Debug, Subcommand)]
-enum SuiteAction {
+pub enum SuiteAction {
     /// Run a built-in learner on every task of a tier (resumable; --shard for a cluster)
     /// and write OUT/results.json.
     Run {
@@ -88,8 +82,8 @@ fn tier(at: &TierRun) -> suite_run::Tier<'_> {
 }
 
 /// Runs `mmq suite`.
-pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
-    match a.action {
+pub fn suite(action: SuiteAction, stop: &AtomicBool) -> Result<(), Failure> {
+    match action {
         SuiteAction::Run { learner, set, at } => {
             let settings = set.iter().map(|kv| crate::run::setting(kv)).collect::<Result<Vec<_>, _>>()?;
             let settings = settings.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
@@ -98,12 +92,9 @@ pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
         SuiteAction::Reference { at } => Ok(suite_run::reference(tier(&at), stop, &Bars::new(at.quiet))?),
         SuiteAction::Merge { dirs, out } => Ok(suite_run::merge(&dirs, &out, &Bars::new(false))?),
         SuiteAction::Report { files, out } => {
-            let r = mmq_report::leaderboard::report(&files, &out)?;
             println!(
-                "leaderboard of {} agent(s) on {} task(s): wrote {}",
-                r.agents,
-                r.tasks,
-                r.markdown.display()
+                "{}",
+                mmq_report::terminal::leaderboard_wrote(&mmq_report::leaderboard::report(&files, &out)?)
             );
             Ok(())
         }

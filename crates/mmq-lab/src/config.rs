@@ -30,6 +30,12 @@ impl EnvKind {
             EnvKind::Swarm => "swarm",
         }
     }
+
+    /// The delay of a run that names none: `poisson:13`, or `none` for the swarm (its
+    /// delays emerge from the radio).
+    pub fn default_delay(self) -> &'static str {
+        if self == EnvKind::Swarm { "none" } else { "poisson:13" }
+    }
 }
 
 /// A resolved run configuration.

@@ -5,9 +5,10 @@
 //!   learner comparison, run and written as one `report.md` with every picture inlined;
 //! - [`sweep`]: the report of one finished sweep, or of several side by side;
 //! - [`text`]: a run's summary table and a world's map and optimal policy, for a terminal;
-//! - [`run`], [`sweep_run`], [`suite_run`], [`live`] and [`replay`]: a run, a sweep, a
-//!   suite tier, the live view and a recording's drawing and check, carried out for a
-//!   front end that shows progress and output through [`Progress`].
+//! - [`run`], [`sweep_run`], [`suite_run`], [`live`], [`replay`] and [`worlds`]: a run, a
+//!   sweep, a suite tier, the live view, a recording's drawing and check, and world files'
+//!   checks, carried out for a front end that shows progress and output through
+//!   [`Progress`].
 //!
 //! The library prints nothing: long work reports through a [`Progress`] the caller
 //! supplies (the command line shows a bar), and each entry point returns what it wrote.
@@ -26,6 +27,7 @@ pub mod sweep;
 pub mod sweep_run;
 pub mod terminal;
 pub mod text;
+pub mod worlds;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -61,6 +63,14 @@ pub enum ReportError {
     /// A recording's re-run differs from it: the verdict.
     #[error("{0}")]
     Differs(String),
+    /// Some of the world files checked are invalid (each said why).
+    #[error("{bad} of {total} world files are invalid")]
+    InvalidWorlds {
+        /// How many are invalid.
+        bad: usize,
+        /// How many were checked.
+        total: usize,
+    },
 }
 
 impl ReportError {
@@ -70,7 +80,10 @@ impl ReportError {
         match self {
             ReportError::Lab(e) => e.is_input_error(),
             ReportError::Plot(_) | ReportError::Log(_) | ReportError::Differs(_) => false,
-            ReportError::UnknownFigure(_) | ReportError::NoSweep | ReportError::Option(_) => true,
+            ReportError::UnknownFigure(_)
+            | ReportError::NoSweep
+            | ReportError::Option(_)
+            | ReportError::InvalidWorlds { .. } => true,
         }
     }
 
@@ -79,9 +92,11 @@ impl ReportError {
         match self {
             ReportError::Lab(e) => e.names_fields(),
             ReportError::UnknownFigure(_) | ReportError::Option(_) => true,
-            ReportError::Plot(_) | ReportError::NoSweep | ReportError::Log(_) | ReportError::Differs(_) => {
-                false
-            }
+            ReportError::Plot(_)
+            | ReportError::NoSweep
+            | ReportError::Log(_)
+            | ReportError::Differs(_)
+            | ReportError::InvalidWorlds { .. } => false,
         }
     }
 }

@@ -17,15 +17,18 @@ pub(crate) fn shard(text: Option<&str>) -> Result<Option<Shard>, ReportError> {
     Ok(text.map(Shard::parse).transpose()?)
 }
 
+/// A finished job's name in its progress line, from its cell's id and index.
+pub(crate) type JobName<'a> = dyn Fn(&str, usize) -> String + Sync + 'a;
+
 /// The jobs of `shard` of `spec` that `out` does not hold yet, run under the progress
 /// label `label`: the plan's line said before they run, and a line per finished job
-/// named by `job` (from the cell's id and index). The progress is begun, not ended.
+/// named by `job`. The progress is begun, not ended.
 pub(crate) fn run_jobs(
     spec: &SweepSpec,
     out: &Path,
     shard: Option<Shard>,
     learners: Option<&CellLearners<'_>>,
-    (label, job): (&str, &(dyn Fn(&str, usize) -> String + Sync)),
+    (label, job): (&str, &JobName<'_>),
     stop: &AtomicBool,
     progress: &dyn Progress,
 ) -> Result<SweepOutcome, ReportError> {
