@@ -5,7 +5,7 @@
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::RunConfig;
-use mmq_lab::config::EnvKind;
+use mmq_lab::config::{EnvKind, RecordSettings};
 use mmq_learn::spec::Params;
 use mmq_report::live::LiveOptions;
 
@@ -23,10 +23,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         ("lambda_hat", a.lambda_hat.map(int)),
         ("time_bin_s", a.time_bin.map(toml::Value::Float)),
     ];
-    for kv in &a.set {
-        let (key, value) = setting(kv)?;
-        given.push((key, Some(value)));
-    }
+    given.extend(settings(&a.set)?.into_iter().map(|(k, v)| (k, Some(v))));
     let params = Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 };
     let learner = mmq_lab::settings::learner(&a.learner, params, &given)?;
     // `EnvArg` lists the fidelities in `EnvKind`'s order.
@@ -45,11 +42,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         reference: a.reference,
         save_tables: !a.no_tables,
         ledger: false,
-        record: a.record.then_some(mmq_lab::config::RecordSettings {
-            pose_rate_hz: a.record_rate.unwrap_or(10.0),
-            first: a.record_first,
-            last: a.record_last,
-        }),
+        record: a.record.then(|| RecordSettings::new(a.record_rate, a.record_first, a.record_last)),
         robot: a.robot.clone(),
         swarm: a.swarm.clone(),
     };
@@ -57,22 +50,17 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
     Ok(cfg)
 }
 
-/// One `--set KEY=VALUE`: the value as TOML (a number, a boolean, a quoted string), else
-/// as text (`poisson:13`).
-pub(crate) fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
-    mmq_core::text_value::key_value(kv).ok_or_else(|| {
-        crate::input_error(format!("--set `{kv}`: not KEY=VALUE; write e.g. --set optimism_confidence=2"))
-    })
+/// The `--set KEY=VALUE` flags: each value as TOML (a number, a boolean, a quoted
+/// string), else as text (`poisson:13`).
+pub(crate) fn settings(set: &[String]) -> Result<Vec<(&str, toml::Value)>, Failure> {
+    let example = "write e.g. --set optimism_confidence=2";
+    let bad = |kv: &str| crate::input_error(format!("--set `{kv}`: not KEY=VALUE; {example}"));
+    set.iter().map(|kv| mmq_core::text_value::key_value(kv).ok_or_else(|| bad(kv))).collect()
 }
 
 /// Runs `mmq run`.
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
-    if cfg.env == EnvKind::Swarm && a.live.is_some() {
-        return Err(crate::input_error(
-            "--live: the live view shows one robot; record the swarm (--record) and open the file in Foxglove".to_string(),
-        ));
-    }
     let live = a.live.map(|addr| LiveOptions { addr, speed: a.live_speed, wait: a.live_wait });
     // A stop that came while the finished run's outputs were written changed nothing: the
     // summary says complete, so the exit code says success, not 130.

@@ -85,18 +85,11 @@ fn tier(at: &TierRun) -> suite_run::Tier<'_> {
 pub fn suite(action: SuiteAction, stop: &AtomicBool) -> Result<(), Failure> {
     match action {
         SuiteAction::Run { learner, set, at } => {
-            let settings = set.iter().map(|kv| crate::run::setting(kv)).collect::<Result<Vec<_>, _>>()?;
-            let settings = settings.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+            let settings = crate::run::settings(&set)?.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
             Ok(suite_run::agent(&Agent { learner, settings }, tier(&at), stop, &Bars::new(at.quiet))?)
         }
         SuiteAction::Reference { at } => Ok(suite_run::reference(tier(&at), stop, &Bars::new(at.quiet))?),
         SuiteAction::Merge { dirs, out } => Ok(suite_run::merge(&dirs, &out, &Bars::new(false))?),
-        SuiteAction::Report { files, out } => {
-            println!(
-                "{}",
-                mmq_report::terminal::leaderboard_wrote(&mmq_report::leaderboard::report(&files, &out)?)
-            );
-            Ok(())
-        }
+        SuiteAction::Report { files, out } => Ok(suite_run::leaderboard(&files, &out, &Bars::new(false))?),
     }
 }

@@ -13,15 +13,13 @@ use crate::progress::Bars;
 
 /// Runs `mmq sweep`.
 pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    // `--quiet` is not given with an action.
+    let bars = Bars::new(a.quiet);
     match a.action {
         Some(SweepAction::Report { dirs, out }) => {
-            let r = mmq_report::sweep::report(&dirs, out.as_deref())?;
-            println!("{}", mmq_report::terminal::sweep_reported(&r));
-            return Ok(());
+            return Ok(sweep_run::report(&dirs, out.as_deref(), &bars)?);
         }
-        Some(SweepAction::Merge { dirs, out }) => {
-            return Ok(sweep_run::merge(&dirs, &out, &Bars::new(false))?);
-        }
+        Some(SweepAction::Merge { dirs, out }) => return Ok(sweep_run::merge(&dirs, &out, &bars)?),
         None => {}
     }
     let spec =
@@ -33,5 +31,5 @@ pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
         let _ = std::io::stdout().lock().write_all(plan.as_bytes());
         return Ok(());
     }
-    Ok(sweep_run::sweep(&spec, &out, a.shard.as_deref(), stop, &Bars::new(a.quiet))?)
+    Ok(sweep_run::sweep(&spec, &out, a.shard.as_deref(), stop, &bars)?)
 }

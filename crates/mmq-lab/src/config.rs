@@ -113,6 +113,14 @@ impl Default for RecordSettings {
     }
 }
 
+impl RecordSettings {
+    /// Recording at `pose_rate_hz` (the default 10 Hz when not given), only the `first`
+    /// and `last` steps when given.
+    pub fn new(pose_rate_hz: Option<f64>, first: Option<u64>, last: Option<u64>) -> Self {
+        Self { pose_rate_hz: pose_rate_hz.unwrap_or(Self::default().pose_rate_hz), first, last }
+    }
+}
+
 impl Default for RunConfig {
     fn default() -> Self {
         Self {

@@ -63,6 +63,10 @@ pub enum ReportError {
     /// A recording's re-run differs from it: the verdict.
     #[error("{0}")]
     Differs(String),
+    /// The command's output could not be written (a full disk; a reader that went away
+    /// is not an error).
+    #[error(transparent)]
+    Output(std::io::Error),
     /// Some of the world files checked are invalid (each said why).
     #[error("{bad} of {total} world files are invalid")]
     InvalidWorlds {
@@ -79,7 +83,9 @@ impl ReportError {
     pub fn is_input_error(&self) -> bool {
         match self {
             ReportError::Lab(e) => e.is_input_error(),
-            ReportError::Plot(_) | ReportError::Log(_) | ReportError::Differs(_) => false,
+            ReportError::Plot(_) | ReportError::Log(_) | ReportError::Differs(_) | ReportError::Output(_) => {
+                false
+            }
             ReportError::UnknownFigure(_)
             | ReportError::NoSweep
             | ReportError::Option(_)
@@ -96,6 +102,7 @@ impl ReportError {
             | ReportError::NoSweep
             | ReportError::Log(_)
             | ReportError::Differs(_)
+            | ReportError::Output(_)
             | ReportError::InvalidWorlds { .. } => false,
         }
     }

@@ -5,14 +5,15 @@
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use mmq_lab::{Control, RunConfig};
+use mmq_lab::{Control, EnvKind, RunConfig};
 
 use crate::live::LiveOptions;
 use crate::{Progress, ReportError};
 
-/// Runs `cfg` into `out`, its first seed served live with `live` when given; says the
-/// summary table and `wrote OUT` through `progress`, or a notice when the stop flag cut
-/// the run short. Returns whether it did (the summary then marks the run partial).
+/// Runs `cfg` into `out`, its first seed served live with `live` when given (not for a
+/// swarm); says the summary table and `wrote OUT` through `progress`, or a notice when the
+/// stop flag cut the run short. Returns whether it did (the summary then marks the run
+/// partial).
 ///
 /// A seed that lost output it should have written (a recording) is an error after the
 /// summary was said.
@@ -23,6 +24,12 @@ pub fn run(
     stop: &AtomicBool,
     progress: &dyn Progress,
 ) -> Result<bool, ReportError> {
+    if cfg.env == EnvKind::Swarm && live.is_some() {
+        return Err(ReportError::Option(
+            "`live`: the live view shows one robot; record the swarm (`record`) and open the file in Foxglove"
+                .to_string(),
+        ));
+    }
     let world = cfg.load_world()?;
     let live = live.map(|o| crate::live::start(o, cfg, out, stop, progress)).transpose()?;
     progress.begin(cfg.total_steps(), cfg.learner.kind().name());

@@ -1,7 +1,8 @@
 //! Running a tier of the benchmark suite for a front end, on the sweep engine
 //! ([`crate::sweep_run`]): a built-in learner ([`agent`]) or the reference
-//! ([`reference`]), resumable and shardable, then the agent's `results.json`; and merging
-//! the output directories of a tier's shards ([`merge`]).
+//! ([`reference`]), resumable and shardable, then the agent's `results.json`; merging
+//! the output directories of a tier's shards ([`merge`]); and the leaderboard of several
+//! agents' results ([`leaderboard`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -92,5 +93,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path, progress: &dyn Progress) -> Result<()
     let (merged, results) = SuiteRun::merge_dirs(dirs, out)?;
     crate::sweep_run::say_merged(dirs.len(), &merged, progress);
     progress.say(&format!("wrote {}\n", results.display()));
+    Ok(())
+}
+
+/// Writes the leaderboard of the results files `files` into `out`
+/// ([`crate::leaderboard::report`]) and says what it wrote.
+pub fn leaderboard(files: &[PathBuf], out: &Path, progress: &dyn Progress) -> Result<(), ReportError> {
+    let r = crate::leaderboard::report(files, out)?;
+    let (agents, tasks, md) = (r.agents, r.tasks, r.markdown.display());
+    progress.say(&format!("leaderboard of {agents} agent(s) on {tasks} task(s): wrote {md}\n"));
     Ok(())
 }

@@ -1,6 +1,6 @@
 //! Running a sweep spec for a front end: its plan checked and said (`--dry-run`), its jobs
-//! run with their progress, a line per finished job and the closing lines, and merging
-//! shard outputs. A suite tier runs on the same engine ([`crate::suite_run`]).
+//! run with their progress, a line per finished job and the closing lines; merging shard
+//! outputs and reporting them. A suite tier runs on the same engine ([`crate::suite_run`]).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
@@ -75,6 +75,13 @@ pub fn sweep(
     if let Some(left) = left {
         progress.notice(&left);
     }
+    Ok(())
+}
+
+/// Reports the sweep output directories `dirs` together ([`crate::sweep::report`]) into
+/// `out` (default: `DIR/report` of the first) and says what it wrote.
+pub fn report(dirs: &[PathBuf], out: Option<&Path>, progress: &dyn Progress) -> Result<(), ReportError> {
+    progress.say(&format!("{}\n", say::sweep_reported(&crate::sweep::report(dirs, out)?)));
     Ok(())
 }
 

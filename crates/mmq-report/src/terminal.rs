@@ -1,5 +1,5 @@
 //! What the commands say on a terminal besides their reports: a sweep's plan and
-//! progress lines, what a merge, a sweep report and a leaderboard wrote, the learners, the shipped
+//! progress lines, what a merge and a sweep report wrote, the learners, the shipped
 //! worlds, a world file's check, a live view's and a replay's lines, and progress lines
 //! for batch logs. Plain functions
 //! from results to text, so that the command line only prints them.
@@ -114,11 +114,6 @@ pub fn sweep_reported(r: &SweepReport) -> String {
         r.markdown.display(),
         r.figures,
     )
-}
-
-/// What `mmq suite report` wrote.
-pub fn leaderboard_wrote(r: &crate::leaderboard::LeaderboardReport) -> String {
-    format!("leaderboard of {} agent(s) on {} task(s): wrote {}", r.agents, r.tasks, r.markdown.display())
 }
 
 /// `mmq learners`: one learner a line, name first, then what it is.
