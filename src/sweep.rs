@@ -13,7 +13,7 @@ use crate::progress::Bars;
 
 /// Runs `mmq sweep`.
 pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
-    // `--quiet` is not given with an action.
+    // Quiet or not, a report and a merge say the same.
     let bars = Bars::new(a.quiet);
     match a.action {
         Some(SweepAction::Report { dirs, out }) => {

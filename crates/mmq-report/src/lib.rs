@@ -55,7 +55,7 @@ pub enum ReportError {
     /// An option of a command that is not accepted; the message names it as a field
     /// (`live_speed`), which a front end shows as its own name for it.
     #[error("{0}")]
-    Option(String),
+    InvalidOption(String),
     /// The live view or a served recording failed while serving (a port in use), or a
     /// recording could not be drawn.
     #[error(transparent)]
@@ -88,7 +88,7 @@ impl ReportError {
             }
             ReportError::UnknownFigure(_)
             | ReportError::NoSweep
-            | ReportError::Option(_)
+            | ReportError::InvalidOption(_)
             | ReportError::InvalidWorlds { .. } => true,
         }
     }
@@ -97,7 +97,7 @@ impl ReportError {
     pub fn names_fields(&self) -> bool {
         match self {
             ReportError::Lab(e) => e.names_fields(),
-            ReportError::UnknownFigure(_) | ReportError::Option(_) => true,
+            ReportError::UnknownFigure(_) | ReportError::InvalidOption(_) => true,
             ReportError::Plot(_)
             | ReportError::NoSweep
             | ReportError::Log(_)

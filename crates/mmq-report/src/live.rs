@@ -30,9 +30,10 @@ pub struct LiveOptions {
 /// The live configuration of the address given as the field `field`; a bad address or
 /// speed is bad input naming its field.
 fn config(field: &str, addr: &str, speed: f64, name: String) -> Result<LiveConfig, ReportError> {
-    let addr = mmq_log::live::parse_addr(addr).map_err(|e| ReportError::Option(format!("`{field}`: {e}")))?;
+    let addr =
+        mmq_log::live::parse_addr(addr).map_err(|e| ReportError::InvalidOption(format!("`{field}`: {e}")))?;
     if !(speed.is_finite() && speed >= 0.0) {
-        return Err(ReportError::Option(format!(
+        return Err(ReportError::InvalidOption(format!(
             "`live_speed` {speed}: the real-time factor must be a number ≥ 0 (1: real time, 0: no pacing)"
         )));
     }
@@ -43,7 +44,7 @@ fn config(field: &str, addr: &str, speed: f64, name: String) -> Result<LiveConfi
 /// that is not > 0 is bad input.
 fn wait_timeout(wait: Option<f64>) -> Result<Option<Duration>, ReportError> {
     match wait {
-        Some(s) if !(s.is_finite() && s > 0.0) => Err(ReportError::Option(format!(
+        Some(s) if !(s.is_finite() && s > 0.0) => Err(ReportError::InvalidOption(format!(
             "`live_wait` {s}: give the most seconds to wait for a viewer (> 0), or no number to wait until one connects"
         ))),
         s => Ok(s.map(Duration::from_secs_f64)),

@@ -71,7 +71,7 @@ fn window(from: Option<u64>, to: Option<u64>) -> Result<Option<(u64, u64)>, Repo
         (f, t) => Some((f.unwrap_or(0), t.unwrap_or(u64::MAX))),
     };
     match window {
-        Some((from, to)) if from >= to => Err(ReportError::Option(format!(
+        Some((from, to)) if from >= to => Err(ReportError::InvalidOption(format!(
             "`from` {from} `to` {to}: the window is empty; give `from` below `to` (decision steps)"
         ))),
         w => Ok(w),
@@ -83,7 +83,7 @@ fn window(from: Option<u64>, to: Option<u64>) -> Result<Option<(u64, u64)>, Repo
 fn render(log: &LogContents, out: &Path, from: Option<u64>, to: Option<u64>) -> Result<String, ReportError> {
     let window = window(from, to)?;
     if out.extension().is_none_or(|e| e != "svg") {
-        return Err(ReportError::Option(format!(
+        return Err(ReportError::InvalidOption(format!(
             "`render` {}: give the SVG's path, e.g. `render` {}; a PNG of the same name is written next to it",
             out.display(),
             out.with_extension("svg").display()

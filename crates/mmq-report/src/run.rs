@@ -25,7 +25,7 @@ pub fn run(
     progress: &dyn Progress,
 ) -> Result<bool, ReportError> {
     if cfg.env == EnvKind::Swarm && live.is_some() {
-        return Err(ReportError::Option(
+        return Err(ReportError::InvalidOption(
             "`live`: the live view shows one robot; record the swarm (`record`) and open the file in Foxglove"
                 .to_string(),
         ));

@@ -1,6 +1,6 @@
 //! Running a tier of the benchmark suite for a front end, on the sweep engine
 //! ([`crate::sweep_run`]): a built-in learner ([`agent`]) or the reference
-//! ([`reference`]), resumable and shardable, then the agent's `results.json`; merging
+//! ([`reference()`]), resumable and shardable, then the agent's `results.json`; merging
 //! the output directories of a tier's shards ([`merge`]); and the leaderboard of several
 //! agents' results ([`leaderboard`]).
 
