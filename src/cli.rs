@@ -38,7 +38,8 @@ pub enum Command {
     /// Run a sweep spec (parameters × seeds), resumable and shardable, or report or merge its outputs.
     Sweep(SweepArgs),
     /// The benchmark suite: run a learner on a tier, merge shards, write a leaderboard.
-    Suite(crate::suite::SuiteArgs),
+    #[command(subcommand)]
+    Suite(crate::suite::SuiteAction),
 }
 
 /// Which fidelities `mmq paper` runs Figs. 6–12 on.
@@ -86,7 +87,7 @@ pub struct PaperArgs {
     pub quiet: bool,
 }
 
-/// Environment fidelity.
+/// Environment fidelity (in the order of `mmq_lab::EnvKind`).
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum EnvArg {
     /// The paper's tabular grid world.

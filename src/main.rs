@@ -3,7 +3,6 @@
 //! all of them, with examples, in docs/robustness.md).
 
 mod cli;
-mod live;
 mod paper;
 mod progress;
 mod replay;

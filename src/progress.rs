@@ -1,10 +1,10 @@
-//! Progress of long work, fed by the lab's progress callback: a bar (indicatif) on a
+//! Progress of long work, fed by the libraries' callbacks: a bar (indicatif) on a
 //! terminal; plain lines every few seconds when stderr is a file or a pipe (a batch job's
 //! log), with steps done of the total, the rate in steps/s and the time left; with `-q`,
 //! only notices.
 
 use std::io::IsTerminal;
-use std::sync::{PoisonError, RwLock, RwLockReadGuard};
+use std::sync::{PoisonError, RwLock};
 use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -20,9 +20,9 @@ enum Mode {
     Lines(LineProgress),
 }
 
-/// Progress as one bar (or plain lines) per piece of work, and notices on stderr (such as
-/// files of an earlier output being replaced); with `-q`, notices and errors only. The reports take it as their `mmq_report::Progress`; the commands
-/// feed it from the lab's progress callback.
+/// The libraries' `mmq_report::Progress`: one bar (or plain lines) per piece of work,
+/// notices (such as files of an earlier output being replaced) and lines of detail on
+/// stderr, the commands' output on stdout; with `-q`, notices and errors only.
 #[derive(Debug)]
 pub struct Bars {
     quiet: bool,
@@ -34,18 +34,6 @@ impl Bars {
     pub fn new(quiet: bool) -> Self {
         Bars { quiet, current: RwLock::new(None) }
     }
-
-    /// A line of progress on stderr (a finished job), with the bar out of the way; not
-    /// shown when quiet (notices are).
-    pub fn line(&self, text: &str) {
-        if !self.quiet {
-            mmq_report::Progress::notice(self, text);
-        }
-    }
-
-    fn current(&self) -> RwLockReadGuard<'_, Option<Mode>> {
-        self.current.read().unwrap_or_else(PoisonError::into_inner)
-    }
 }
 
 impl mmq_report::Progress for Bars {
@@ -54,15 +42,11 @@ impl mmq_report::Progress for Bars {
         let mode = if self.quiet {
             None
         } else if std::io::stderr().is_terminal() {
-            let pb = ProgressBar::new(total);
-            pb.set_style(
-                ProgressStyle::with_template(
-                    "{msg:>12} [{elapsed_precise}] {wide_bar} {percent:>3}% {per_sec:.1} steps/s eta {eta}",
-                )
-                .unwrap_or_else(|_| ProgressStyle::default_bar()),
-            );
-            pb.set_message(label.to_string());
-            Some(Mode::Bar(pb))
+            let style = ProgressStyle::with_template(
+                "{msg:>12} [{elapsed_precise}] {wide_bar} {percent:>3}% {per_sec:.1} steps/s eta {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar());
+            Some(Mode::Bar(ProgressBar::new(total).with_style(style).with_message(label.to_string())))
         } else {
             Some(Mode::Lines(LineProgress::new(label, total, LINE_EVERY)))
         };
@@ -70,7 +54,7 @@ impl mmq_report::Progress for Bars {
     }
 
     fn advance(&self, n: u64) {
-        match self.current().as_ref() {
+        match self.current.read().unwrap_or_else(PoisonError::into_inner).as_ref() {
             Some(Mode::Bar(pb)) => pb.inc(n),
             Some(Mode::Lines(p)) => {
                 if let Some(line) = p.inc(n) {
@@ -92,9 +76,21 @@ impl mmq_report::Progress for Bars {
 
     /// A line on stderr, with the bar out of the way; shown also when quiet.
     fn notice(&self, text: &str) {
-        match self.current().as_ref() {
+        match self.current.read().unwrap_or_else(PoisonError::into_inner).as_ref() {
             Some(Mode::Bar(pb)) => pb.suspend(|| eprintln!("{text}")),
             _ => eprintln!("{text}"),
         }
+    }
+
+    /// A notice, except when quiet.
+    fn line(&self, text: &str) {
+        if !self.quiet {
+            self.notice(text);
+        }
+    }
+
+    /// On stdout.
+    fn say(&self, text: &str) {
+        print!("{text}");
     }
 }

@@ -1,47 +1,38 @@
-//! `mmq run`: flags → validated `RunConfig` → config.toml → seeds in parallel →
-//! summary.json, metrics.csv, policy.csv, Q-tables; a short table on stdout
-//! (`mmq_report::text`).
+//! `mmq run`: flags → validated `RunConfig` → the run (`mmq_report::run`: config.toml,
+//! seeds in parallel, summary.json, metrics.csv, policy.csv, Q-tables; a short table on
+//! stdout).
 
 use std::sync::atomic::AtomicBool;
 
-use mmq_lab::config::EnvKind;
-use mmq_lab::{Control, RunConfig};
+use mmq_lab::RunConfig;
+use mmq_lab::config::{EnvKind, RecordSettings};
 use mmq_learn::spec::Params;
-use mmq_report::Progress as _;
+use mmq_report::live::LiveOptions;
 
 use crate::Failure;
-use crate::cli::{EnvArg, RunArgs};
+use crate::cli::RunArgs;
 use crate::progress::Bars;
 
 /// Stage two of the flags: a validated configuration.
 pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
-    // Only the settings given are set; one the learner does not have is an error.
+    // Only the settings given are set; one the learner does not have, or one given twice,
+    // is an error.
     let int = |x: usize| toml::Value::Integer(x.min(i64::MAX as usize) as i64);
     let mut given = vec![
         ("max_delay", a.max_delay.map(int)),
         ("lambda_hat", a.lambda_hat.map(int)),
         ("time_bin_s", a.time_bin.map(toml::Value::Float)),
     ];
-    for kv in &a.set {
-        let (key, value) = setting(kv)?;
-        if given.iter().any(|(k, v)| *k == key && v.is_some()) {
-            return Err(crate::input_error(format!("`{key}` is given twice; give it once")));
-        }
-        given.push((key, Some(value)));
-    }
+    given.extend(settings(&a.set)?.into_iter().map(|(k, v)| (k, Some(v))));
     let params = Params { alpha: a.alpha, gamma: a.gamma, epsilon: a.epsilon, q0: a.q0 };
     let learner = mmq_lab::settings::learner(&a.learner, params, &given)?;
+    // `EnvArg` lists the fidelities in `EnvKind`'s order.
+    let env = [EnvKind::Grid, EnvKind::Robot, EnvKind::Swarm][a.env as usize];
     let cfg = RunConfig {
         world: a.world.clone(),
-        env: match a.env {
-            EnvArg::Grid => EnvKind::Grid,
-            EnvArg::Robot => EnvKind::Robot,
-            EnvArg::Swarm => EnvKind::Swarm,
-        },
+        env,
         learner,
-        delay: a.delay.clone().unwrap_or_else(|| {
-            if matches!(a.env, EnvArg::Swarm) { "none" } else { "poisson:13" }.to_string()
-        }),
+        delay: a.delay.clone().unwrap_or_else(|| env.default_delay().to_string()),
         steps: a.steps,
         seed: a.seed,
         seeds: a.seeds,
@@ -51,11 +42,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         reference: a.reference,
         save_tables: !a.no_tables,
         ledger: false,
-        record: a.record.then_some(mmq_lab::config::RecordSettings {
-            pose_rate_hz: a.record_rate.unwrap_or(10.0),
-            first: a.record_first,
-            last: a.record_last,
-        }),
+        record: a.record.then(|| RecordSettings::new(a.record_rate, a.record_first, a.record_last)),
         robot: a.robot.clone(),
         swarm: a.swarm.clone(),
     };
@@ -63,43 +50,22 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
     Ok(cfg)
 }
 
-/// One `--set KEY=VALUE`: the value as TOML (a number, a boolean, a quoted string), else
-/// as text (`poisson:13`).
-pub(crate) fn setting(kv: &str) -> Result<(&str, toml::Value), Failure> {
-    mmq_core::text_value::key_value(kv).ok_or_else(|| {
-        crate::input_error(format!("--set `{kv}`: not KEY=VALUE; write e.g. --set optimism_confidence=2"))
-    })
+/// The `--set KEY=VALUE` flags: each value as TOML (a number, a boolean, a quoted
+/// string), else as text (`poisson:13`).
+pub(crate) fn settings(set: &[String]) -> Result<Vec<(&str, toml::Value)>, Failure> {
+    let example = "write e.g. --set optimism_confidence=2";
+    let bad = |kv: &str| crate::input_error(format!("--set `{kv}`: not KEY=VALUE; {example}"));
+    set.iter().map(|kv| mmq_core::text_value::key_value(kv).ok_or_else(|| bad(kv))).collect()
 }
 
 /// Runs `mmq run`.
 pub fn run(a: RunArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let cfg = resolve(&a)?;
-    let world = cfg.load_world()?;
-    // Before anything is written: a bad address or a port in use stops here.
-    let live = crate::live::start(&a, &cfg)?;
-    let pb = Bars::new(a.quiet);
-    pb.begin(cfg.total_steps(), cfg.learner.kind().name());
-    let progress = |n: u64| pb.advance(n);
-    let ctl = Control { stop, progress: &progress };
-    let claimed = |replaced: usize| {
-        // Said also under -q: files are removed.
-        if replaced > 0 {
-            eprintln!("{}: replacing the previous run's {replaced} file(s)", a.out.display());
-        }
-    };
-    let written = mmq_lab::record::run_recorded(&a.out, &cfg, &world, live, ctl, &claimed);
-    pb.end();
-    let written = written?;
-    print!("{}", mmq_report::text::run_summary(&written.summary));
-    // The summary says incomplete; the exit code and one message per lost file say why.
-    written.check(&a.out)?;
-    if written.interrupted {
-        eprintln!("{}", mmq_report::terminal::run_interrupted(&written, &a.out));
-    } else {
-        // A stop that came while the finished run's outputs were written changed nothing:
-        // the summary says complete, so the exit code says success, not 130.
+    let live = a.live.map(|addr| LiveOptions { addr, speed: a.live_speed, wait: a.live_wait });
+    // A stop that came while the finished run's outputs were written changed nothing: the
+    // summary says complete, so the exit code says success, not 130.
+    if !mmq_report::run::run(&cfg, &a.out, live.as_ref(), stop, &Bars::new(a.quiet))? {
         stop.store(false, std::sync::atomic::Ordering::SeqCst);
-        println!("wrote {}", a.out.display());
     }
     Ok(())
 }

@@ -1,31 +1,20 @@
-//! `mmq suite`: run a built-in learner on a tier of the benchmark suite (through the
-//! sweep engine: resumable, shardable), merge shard outputs, and write the leaderboard
-//! of several agents' results (`mmq_report::leaderboard`).
+//! `mmq suite`: run a built-in learner or the reference on a tier of the benchmark suite
+//! (`mmq_report::suite_run`: resumable, shardable), merge shard outputs, and write the
+//! leaderboard of several agents' results (`mmq_report::leaderboard`).
 
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
-use std::time::Instant;
 
 use clap::{Args, Subcommand};
-use mmq_lab::Control;
-use mmq_lab::suite::{Agent, Suite, SuiteRun, reference, results_of_dir, write_results};
-use mmq_lab::sweep::{CellLearners, Shard, SweepEvent, SweepSpec, run_sweep_with};
-use mmq_report::Progress as _;
-use mmq_report::terminal as say;
+use mmq_lab::suite::Agent;
+use mmq_report::suite_run;
 
 use crate::Failure;
 use crate::progress::Bars;
 
-/// Flags of `mmq suite` (see docs/suite.md).
-#[derive(Debug, Args)]
-pub struct SuiteArgs {
-    #[command(subcommand)]
-    action: SuiteAction,
-}
-
 /// Where a tier runs: shared by `suite run` and `suite reference`.
 #[derive(Debug, Args)]
-struct TierRun {
+pub struct TierRun {
     /// The tier: lite (minutes) or full (the paper's budget).
     #[arg(long)]
     tier: String,
@@ -43,8 +32,9 @@ struct TierRun {
     quiet: bool,
 }
 
+/// What `mmq suite` does (see docs/suite.md).
 #[derive(Debug, Subcommand)]
-enum SuiteAction {
+pub enum SuiteAction {
     /// Run a built-in learner on every task of a tier (resumable; --shard for a cluster)
     /// and write OUT/results.json.
     Run {
@@ -86,93 +76,20 @@ enum SuiteAction {
     },
 }
 
-/// Runs `mmq suite`.
-pub fn suite(a: SuiteArgs, stop: &AtomicBool) -> Result<(), Failure> {
-    match a.action {
-        SuiteAction::Run { learner, set, at } => {
-            let settings = set.iter().map(|kv| crate::run::setting(kv)).collect::<Result<Vec<_>, _>>()?;
-            let agent =
-                Agent { learner, settings: settings.into_iter().map(|(k, v)| (k.to_string(), v)).collect() };
-            let suite = Suite::open(&at.suite)?;
-            let spec = suite.spec(&at.tier, &agent)?;
-            let run = SuiteRun {
-                suite: suite.version.clone(),
-                tier: at.tier.clone(),
-                agent: agent.name(),
-                tasks: suite.task_names(),
-                subset: false,
-            };
-            go(&spec, &run, None, &at, stop)
-        }
-        SuiteAction::Reference { at } => {
-            let (spec, run) = Suite::open(&at.suite)?.reference_spec(&at.tier)?;
-            let learners = reference::learners(&spec);
-            go(&spec, &run, Some(&learners), &at, stop)
-        }
-        SuiteAction::Merge { dirs, out } => {
-            let (merged, results) = SuiteRun::merge_dirs(&dirs, &out)?;
-            let (said, missing) = say::merged(dirs.len(), &merged);
-            println!("{said}");
-            if let Some(m) = missing {
-                eprintln!("{m}");
-            }
-            println!("wrote {}", results.display());
-            Ok(())
-        }
-        SuiteAction::Report { files, out } => {
-            let r = mmq_report::leaderboard::report(&files, &out)?;
-            println!(
-                "leaderboard of {} agent(s) on {} task(s): wrote {}",
-                r.agents,
-                r.tasks,
-                r.markdown.display()
-            );
-            Ok(())
-        }
-    }
+/// Where the tier runs.
+fn tier(at: &TierRun) -> suite_run::Tier<'_> {
+    suite_run::Tier { tier: &at.tier, suite: &at.suite, out: &at.out, shard: at.shard.as_deref() }
 }
 
-/// Runs the jobs of `spec` for the suite run `run` into `out` (learners from `learners`
-/// when given, else the spec's) and writes its results file.
-fn go(
-    spec: &SweepSpec,
-    run: &SuiteRun,
-    learners: Option<&CellLearners<'_>>,
-    at: &TierRun,
-    stop: &AtomicBool,
-) -> Result<(), Failure> {
-    let (out, quiet) = (at.out.as_path(), at.quiet);
-    let shard = at.shard.as_deref().map(Shard::parse).transpose()?;
-    run.claim(out)?;
-    let clock = Instant::now();
-    let pb = Bars::new(quiet);
-    let progress = |n: u64| pb.advance(n);
-    let ctl = Control { stop, progress: &progress };
-    let events = |e: &SweepEvent<'_>| match e {
-        SweepEvent::Planned { jobs_total, jobs_here, done, baselines, steps } => {
-            pb.begin(*steps, "suite");
-            println!("{}", say::sweep_planned(&spec.plan, shard, *jobs_total, *jobs_here, *done, *baselines));
+/// Runs `mmq suite`.
+pub fn suite(action: SuiteAction, stop: &AtomicBool) -> Result<(), Failure> {
+    match action {
+        SuiteAction::Run { learner, set, at } => {
+            let settings = crate::run::settings(&set)?.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
+            Ok(suite_run::agent(&Agent { learner, settings }, tier(&at), stop, &Bars::new(at.quiet))?)
         }
-        SweepEvent::JobDone { cell_index, seed, finished, of, wall_s, .. } => {
-            let task = &run.tasks[*cell_index];
-            pb.line(&format!("[{finished}/{of}] {task} seed {seed}: {wall_s:.2} s"));
-        }
-    };
-    let outcome = run_sweep_with(spec, out, shard, ctl, &events, learners);
-    pb.end();
-    let outcome = outcome?;
-    let results = results_of_dir(out)?;
-    let path = write_results(out, &results)?;
-    println!(
-        "suite {} tier {}, agent {}: ran {} seed(s), skipped {} already finished, {} left ({:.1} s); wrote {}",
-        run.suite,
-        run.tier,
-        run.agent,
-        outcome.ran,
-        outcome.skipped,
-        outcome.left,
-        clock.elapsed().as_secs_f64(),
-        path.display()
-    );
-    Ok(())
+        SuiteAction::Reference { at } => Ok(suite_run::reference(tier(&at), stop, &Bars::new(at.quiet))?),
+        SuiteAction::Merge { dirs, out } => Ok(suite_run::merge(&dirs, &out, &Bars::new(false))?),
+        SuiteAction::Report { files, out } => Ok(suite_run::leaderboard(&files, &out, &Bars::new(false))?),
+    }
 }

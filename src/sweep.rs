@@ -1,14 +1,11 @@
 //! `mmq sweep`: run a spec's product of parameters over seeds (resumable, shardable),
-//! merge shard outputs, and report them (the report itself is `mmq_report::sweep`).
+//! merge shard outputs, and report them (`mmq_report::sweep_run` and
+//! `mmq_report::sweep`).
 
 use std::io::Write as _;
 use std::sync::atomic::AtomicBool;
-use std::time::Instant;
 
-use mmq_lab::Control;
-use mmq_lab::sweep::{Shard, SweepEvent, SweepSpec, merge, run_sweep};
-use mmq_report::Progress as _;
-use mmq_report::terminal as say;
+use mmq_report::sweep_run;
 
 use crate::Failure;
 use crate::cli::{SweepAction, SweepArgs};
@@ -16,54 +13,23 @@ use crate::progress::Bars;
 
 /// Runs `mmq sweep`.
 pub fn sweep(a: SweepArgs, stop: &AtomicBool) -> Result<(), Failure> {
+    // Quiet or not, a report and a merge say the same.
+    let bars = Bars::new(a.quiet);
     match a.action {
         Some(SweepAction::Report { dirs, out }) => {
-            println!("{}", say::sweep_reported(&mmq_report::sweep::report(&dirs, out.as_deref())?));
-            return Ok(());
+            return Ok(sweep_run::report(&dirs, out.as_deref(), &bars)?);
         }
-        Some(SweepAction::Merge { dirs, out }) => {
-            let (said, missing) = say::merged(dirs.len(), &merge(&dirs, &out)?);
-            println!("{said}");
-            if let Some(m) = missing {
-                eprintln!("{m}");
-            }
-            return Ok(());
-        }
+        Some(SweepAction::Merge { dirs, out }) => return Ok(sweep_run::merge(&dirs, &out, &bars)?),
         None => {}
     }
     let spec =
         a.spec.ok_or_else(|| crate::input_error("give a sweep spec: mmq sweep SPEC.toml --out DIR"))?;
     let out = a.out.ok_or_else(|| crate::input_error("give an output directory: --out DIR"))?;
-    let shard = a.shard.as_deref().map(Shard::parse).transpose()?;
-    let spec = SweepSpec::load(&spec)?;
-    let plan = &spec.plan;
     if a.dry_run {
+        let plan = sweep_run::dry_run(&spec, a.shard.as_deref())?;
         // One write, errors ignored: `mmq sweep ... --dry-run | head` must not panic.
-        let _ = std::io::stdout().lock().write_all(say::sweep_plan(plan, shard).as_bytes());
+        let _ = std::io::stdout().lock().write_all(plan.as_bytes());
         return Ok(());
     }
-    let clock = Instant::now();
-    // The bar begins once the plan says how many steps are left to run.
-    let pb = Bars::new(a.quiet);
-    let progress = |n: u64| pb.advance(n);
-    let ctl = Control { stop, progress: &progress };
-    let events = |e: &SweepEvent<'_>| match e {
-        SweepEvent::Planned { jobs_total, jobs_here, done, baselines, steps } => {
-            pb.begin(*steps, "sweep");
-            println!("{}", say::sweep_planned(plan, shard, *jobs_total, *jobs_here, *done, *baselines));
-        }
-        SweepEvent::JobDone { .. } if a.quiet => {}
-        SweepEvent::JobDone { cell, cell_index, seed, finished, of, wall_s } => {
-            let axes = say::cell_axes(plan, *cell_index);
-            pb.line(&format!("[{finished}/{of}] cell {cell} ({axes}) seed {seed}: {wall_s:.2} s"));
-        }
-    };
-    let outcome = run_sweep(&spec, &out, shard, ctl, &events)?;
-    pb.end();
-    let (ran, left) = say::sweep_ran(&outcome, shard.is_some(), clock.elapsed().as_secs_f64());
-    println!("{ran}");
-    if let Some(left) = left {
-        eprintln!("{left}");
-    }
-    Ok(())
+    Ok(sweep_run::sweep(&spec, &out, a.shard.as_deref(), stop, &bars)?)
 }

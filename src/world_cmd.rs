@@ -1,45 +1,21 @@
 //! `mmq world list|check|show`.
 
 use mmq_core::World;
-use mmq_lab::runner::check_world;
+use mmq_report::text;
 
 use crate::Failure;
 use crate::cli::WorldAction;
+use crate::progress::Bars;
 
 /// Runs `mmq world`.
 pub fn world(action: WorldAction) -> Result<(), Failure> {
     match action {
-        WorldAction::List => {
-            print!("{}", mmq_report::terminal::shipped_worlds()?);
-            Ok(())
-        }
-        WorldAction::Check { files } => {
-            let mut bad = 0;
-            let total = files.len();
-            for f in files {
-                match check_world(&f) {
-                    Ok(w) => println!("{}", mmq_report::terminal::world_ok(&f, &w)),
-                    Err(e) => {
-                        eprintln!("error: {e}");
-                        bad += 1;
-                    }
-                }
-            }
-            if bad > 0 {
-                return Err(crate::input_error(format!("{bad} of {total} world files are invalid")));
-            }
-            Ok(())
-        }
-        WorldAction::Show { file, toml: false } => {
-            print!("{}", mmq_report::text::world(&World::load(&file)?));
-            Ok(())
-        }
-        WorldAction::Show { file, toml: true } => {
-            // The file as read (a shipped world's own text): valid TOML that loads as
-            // this world.
+        WorldAction::List => print!("{}", mmq_report::terminal::shipped_worlds()?),
+        WorldAction::Check { files } => mmq_report::worlds::check(&files, &Bars::new(false))?,
+        WorldAction::Show { file, toml } => {
             let w = World::load(&file)?;
-            print!("{}{}", w.source, if w.source.ends_with('\n') { "" } else { "\n" });
-            Ok(())
+            print!("{}", if toml { text::world_toml(&w) } else { text::world(&w) });
         }
     }
+    Ok(())
 }

@@ -30,6 +30,12 @@ impl EnvKind {
             EnvKind::Swarm => "swarm",
         }
     }
+
+    /// The delay of a run that names none: `poisson:13`, or `none` for the swarm (its
+    /// delays emerge from the radio).
+    pub fn default_delay(self) -> &'static str {
+        if self == EnvKind::Swarm { "none" } else { "poisson:13" }
+    }
 }
 
 /// A resolved run configuration.
@@ -104,6 +110,14 @@ pub struct RecordSettings {
 impl Default for RecordSettings {
     fn default() -> Self {
         Self { pose_rate_hz: 10.0, first: None, last: None }
+    }
+}
+
+impl RecordSettings {
+    /// Recording at `pose_rate_hz` (the default 10 Hz when not given), only the `first`
+    /// and `last` steps when given.
+    pub fn new(pose_rate_hz: Option<f64>, first: Option<u64>, last: Option<u64>) -> Self {
+        Self { pose_rate_hz: pose_rate_hz.unwrap_or(Self::default().pose_rate_hz), first, last }
     }
 }
 

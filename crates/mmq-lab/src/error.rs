@@ -32,6 +32,9 @@ pub enum LabError {
         /// What is wrong and the fix.
         message: String,
     },
+    /// A learner setting given twice (as its own option and as `KEY=VALUE`, or twice so).
+    #[error("`{0}` is given twice; give it once")]
+    GivenTwice(String),
     /// A configuration file that cannot be read.
     #[error("{file}: {message}")]
     Config {
@@ -157,6 +160,7 @@ impl LabError {
                 | LabError::Learner(_)
                 | LabError::InvalidParam { .. }
                 | LabError::Setting { .. }
+                | LabError::GivenTwice(_)
                 | LabError::Config { .. }
                 | LabError::Spec { .. }
                 | LabError::OutDirInUse { .. }

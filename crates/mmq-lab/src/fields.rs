@@ -1,5 +1,6 @@
-//! Run-configuration fields as errors name them, in backticks ("`max_delay` = 70000 is
-//! not accepted; …"), and the command-line flag of each. Library errors speak the
+//! Run-configuration fields (and a run's options besides, such as its live view's) as
+//! errors name them, in backticks ("`max_delay` = 70000 is not accepted; …"), and the
+//! command-line flag of each. Library errors speak the
 //! configuration; a front end that speaks flags (the command line) rewrites them with
 //! [`as_flags`], one that takes the fields by name (Python's keyword arguments) with
 //! [`as_names`].
@@ -27,6 +28,14 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("out", "--out"),
     ("fig", "--fig"),
     ("threads", "--threads"),
+    ("live", "--live"),
+    ("record", "--record"),
+    ("live_speed", "--live-speed"),
+    ("live_wait", "--live-wait"),
+    ("serve", "--serve"),
+    ("render", "--render"),
+    ("from", "--from"),
+    ("to", "--to"),
 ];
 
 fn rewrite(text: &str, to: impl Fn(&str, &str) -> String) -> String {

@@ -92,13 +92,17 @@ pub fn with_settings(spec: &LearnerSpec, pairs: &[(&str, &toml::Value)]) -> Resu
 }
 
 /// Learner `name` with the shared parameters `params` and the settings given (`None`:
-/// the learner's default), checked as [`with_settings`] checks them; an unknown name is an
-/// error naming `learner`.
+/// the learner's default), checked as [`with_settings`] checks them; a setting given
+/// twice is an error, and so is an unknown name (naming `learner`).
 pub fn learner(
     name: &str,
     params: Params,
     given: &[(&str, Option<toml::Value>)],
 ) -> Result<LearnerSpec, LabError> {
+    let named: Vec<&str> = given.iter().filter(|(_, v)| v.is_some()).map(|(k, _)| *k).collect();
+    if let Some((i, _)) = named.iter().enumerate().find(|(i, k)| named[..*i].contains(k)) {
+        return Err(LabError::GivenTwice(named[i].to_string()));
+    }
     let kind = LearnerKind::parse(name)
         .map_err(|e| LabError::Setting { field: "learner".into(), message: e.to_string() })?;
     let pairs: Vec<(&str, &toml::Value)> =
@@ -165,6 +169,18 @@ mod tests {
 
     fn v(x: impl Into<toml::Value>) -> toml::Value {
         x.into()
+    }
+
+    #[test]
+    fn a_setting_given_twice_is_refused_before_the_learner_is_read() {
+        let p = Params::default();
+        let given = [("lambda_hat", Some(v(5))), ("max_delay", None), ("lambda_hat", Some(v(3)))];
+        let e = learner("no-such-learner", p, &given).unwrap_err();
+        assert_eq!(e.to_string(), "`lambda_hat` is given twice; give it once");
+        assert!(e.is_input_error() && !e.names_fields());
+        // Not given (`None`) does not count.
+        let given = [("lambda_hat", None), ("lambda_hat", Some(v(3)))];
+        assert_eq!(learner("fixed", p, &given).unwrap().kind(), LearnerKind::parse("fixed").unwrap());
     }
 
     #[test]

@@ -4,7 +4,11 @@
 //! - [`paper`]: the paper's figures (2, 3, 4, 6–12 and the ε/q0 sensitivity) and the
 //!   learner comparison, run and written as one `report.md` with every picture inlined;
 //! - [`sweep`]: the report of one finished sweep, or of several side by side;
-//! - [`text`]: a run's summary table and a world's map and optimal policy, for a terminal.
+//! - [`text`]: a run's summary table and a world's map and optimal policy, for a terminal;
+//! - [`run`], [`sweep_run`], [`suite_run`], [`live`], [`replay`] and [`worlds`]: a run, a
+//!   sweep, a suite tier, the live view, a recording's drawing and check, and world files'
+//!   checks, carried out for a front end that shows progress and output through
+//!   [`Progress`].
 //!
 //! The library prints nothing: long work reports through a [`Progress`] the caller
 //! supplies (the command line shows a bar), and each entry point returns what it wrote.
@@ -12,12 +16,18 @@
 mod axes;
 mod comparison;
 pub mod leaderboard;
+pub mod live;
 pub mod paper;
 mod reference;
+pub mod replay;
+pub mod run;
+pub mod suite_run;
 mod swarm;
 pub mod sweep;
+pub mod sweep_run;
 pub mod terminal;
 pub mod text;
+pub mod worlds;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -52,6 +62,29 @@ pub enum ReportError {
     /// A report was asked of no sweep directory.
     #[error("give a sweep output directory")]
     NoSweep,
+    /// An option of a command that is not accepted; the message names it as a field
+    /// (`live_speed`), which a front end shows as its own name for it.
+    #[error("{0}")]
+    InvalidOption(String),
+    /// The live view or a served recording failed while serving (a port in use), or a
+    /// recording could not be drawn.
+    #[error(transparent)]
+    Log(#[from] mmq_log::LogError),
+    /// A recording's re-run differs from it: the verdict.
+    #[error("{0}")]
+    Differs(String),
+    /// The command's output could not be written (a full disk; a reader that went away
+    /// is not an error).
+    #[error(transparent)]
+    Output(std::io::Error),
+    /// Some of the world files checked are invalid (each said why).
+    #[error("{bad} of {total} world files are invalid")]
+    InvalidWorlds {
+        /// How many are invalid.
+        bad: usize,
+        /// How many were checked.
+        total: usize,
+    },
 }
 
 impl ReportError {
@@ -60,8 +93,14 @@ impl ReportError {
     pub fn is_input_error(&self) -> bool {
         match self {
             ReportError::Lab(e) => e.is_input_error(),
-            ReportError::Plot(_) => false,
-            ReportError::UnknownFigure(_) | ReportError::NoSweep | ReportError::FigureSpec { .. } => true,
+            ReportError::Plot(_) | ReportError::Log(_) | ReportError::Differs(_) | ReportError::Output(_) => {
+                false
+            }
+            ReportError::UnknownFigure(_)
+            | ReportError::NoSweep
+            | ReportError::FigureSpec { .. }
+            | ReportError::InvalidOption(_)
+            | ReportError::InvalidWorlds { .. } => true,
         }
     }
 
@@ -69,8 +108,14 @@ impl ReportError {
     pub fn names_fields(&self) -> bool {
         match self {
             ReportError::Lab(e) => e.names_fields(),
-            ReportError::UnknownFigure(_) => true,
-            ReportError::Plot(_) | ReportError::NoSweep | ReportError::FigureSpec { .. } => false,
+            ReportError::UnknownFigure(_) | ReportError::InvalidOption(_) => true,
+            ReportError::Plot(_)
+            | ReportError::NoSweep
+            | ReportError::FigureSpec { .. }
+            | ReportError::Log(_)
+            | ReportError::Differs(_)
+            | ReportError::Output(_)
+            | ReportError::InvalidWorlds { .. } => false,
         }
     }
 }
@@ -90,6 +135,14 @@ pub trait Progress: Sync {
     fn end(&self) {}
     /// A notice worth showing (e.g. files of an earlier report being replaced).
     fn notice(&self, text: &str) {
+        let _ = text;
+    }
+    /// A line of detail about the work (a finished job), which a quiet front end leaves out.
+    fn line(&self, text: &str) {
+        let _ = text;
+    }
+    /// The command's output, as is (the command line writes it to stdout).
+    fn say(&self, text: &str) {
         let _ = text;
     }
 }

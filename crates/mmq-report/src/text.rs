@@ -1,5 +1,5 @@
 //! Short plain-text reports for a terminal: a run's summary table (`mmq run`) and a
-//! world's map, optimal policy and optimum (`mmq world show`).
+//! world's map, optimal policy and optimum, or its file's text (`mmq world show`).
 
 use std::fmt::Write as _;
 
@@ -56,6 +56,12 @@ pub fn run_summary(s: &Summary) -> String {
     }
     let _ = writeln!(t, "  (horizon: {} steps; relative performance depends on it)", s.config.steps);
     t
+}
+
+/// A world's file as read (a shipped world's own text), ending in a newline: valid TOML
+/// that loads as this world.
+pub fn world_toml(w: &World) -> String {
+    format!("{}{}", w.source, if w.source.ends_with('\n') { "" } else { "\n" })
 }
 
 /// A world: its map, every optimal move of every cell (· where all four are), and the

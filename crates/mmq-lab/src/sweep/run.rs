@@ -19,7 +19,7 @@ use crate::output::write_atomic;
 use crate::runner::{Control, LearnerFactory, SeedResult, Trajectory, memory_limit};
 use crate::summary::seed_metrics;
 
-/// What a sweep reports while it runs (the CLI prints it).
+/// What a sweep reports while it runs (`mmq_report::sweep_run` says it).
 #[derive(Debug)]
 pub enum SweepEvent<'a> {
     /// After reading the output directory, before any work.
