@@ -44,10 +44,6 @@ fn a_run_with_the_reference_reports_its_fraction_beside_the_optimums() {
             assert!((f - opt / reference).abs() < 1e-9, "{f} vs {opt} / {reference}");
         }
     }
-    // The swarm has none.
-    let o = mmq(&["run", "--env", "swarm", "--reference", "--steps", "10", "--out", &out, "-q"]);
-    assert_eq!(o.status.code(), Some(3), "{}", text(&o).1);
-    assert!(text(&o).1.contains("`reference`"));
 }
 
 #[test]
