@@ -12,7 +12,6 @@ pub mod config;
 pub mod error;
 pub mod exec;
 pub mod fields;
-pub mod format;
 pub mod grid_optimal;
 pub mod lock;
 pub mod output;

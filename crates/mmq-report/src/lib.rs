@@ -11,6 +11,7 @@
 
 mod axes;
 mod comparison;
+pub mod format;
 pub mod leaderboard;
 pub mod paper;
 mod reference;
@@ -129,7 +130,8 @@ impl Doc {
 
     /// A table's data as `name` (CSV), linked from the markdown.
     fn csv(&mut self, name: &str, text: &str) -> Result<(), ReportError> {
-        let p = mmq_lab::paper::write_csv(&self.out, name, text)?;
+        let p = self.out.join(name);
+        mmq_lab::output::write_atomic(&p, text.as_bytes())?;
         let _ = writeln!(self.md, "Data: [`{name}`]({name})\n");
         self.files.push(p);
         Ok(())
