@@ -262,3 +262,30 @@ fn cell_table<'a>(
         out.push('\n');
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use mmq_lab::sweep::PlanCell;
+
+    use super::*;
+
+    fn plan(seeds: &[Option<Vec<u64>>]) -> Plan {
+        let cells = seeds
+            .iter()
+            .enumerate()
+            .map(|(i, s)| PlanCell { id: format!("c{i}"), params: vec![], seeds: s.clone() })
+            .collect();
+        Plan::new("s".into(), String::new(), vec![], vec![], vec![0, 1], cells)
+    }
+
+    /// A plan's size reads as a product when every cell runs the same seeds, and as cells
+    /// and jobs when cells have seeds of their own.
+    #[test]
+    fn plan_sizes_read_as_products_or_parts() {
+        let same = plan(&[None, None, None]);
+        assert_eq!(plan_size(&same, same.jobs()), "3 cells × 2 seeds = 6 jobs");
+        assert_eq!(plan_size(&same, 2), "3 cells × 2 seeds = 2 jobs");
+        let parts = plan(&[None, Some(vec![7, 8, 9])]);
+        assert_eq!(plan_size(&parts, parts.jobs()), "2 cells, 5 jobs (seeds per part)");
+    }
+}
