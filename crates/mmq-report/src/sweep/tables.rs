@@ -79,7 +79,7 @@ pub fn summary_markdown(plan: &Plan, stats: &[CellStats]) -> String {
     out
 }
 
-/// The report of several sweeps read together ([`combine`]): a line per sweep, then the
+/// The report of several sweeps read together ([`mmq_lab::sweep::combine`]): a line per sweep, then the
 /// table of every cell as in [`summary_markdown`].
 pub fn combined_markdown(parts: &[(Plan, Vec<CellStats>)], plan: &Plan, stats: &[CellStats]) -> String {
     let names: Vec<String> = parts.iter().map(|p| format!("`{}`", p.0.name)).collect();
