@@ -5,7 +5,7 @@
 //!   learner comparison, run and written as one `report.md` with every picture inlined;
 //! - [`sweep`]: the report of one finished sweep, or of several side by side;
 //! - [`text`]: a run's summary table and a world's map and optimal policy, for a terminal;
-//! - [`format`]: numbers as every report and terminal table shows them.
+//! - [`format`](mod@format): numbers as every report and terminal table shows them.
 //!
 //! The library prints nothing: long work reports through a [`Progress`] the caller
 //! supplies (the command line shows a bar), and each entry point returns what it wrote.
