@@ -1,7 +1,8 @@
 //! mmq-lab: run configurations, the runner (one seed: learning, metrics, greedy
 //! evaluation, the undelayed baseline), multi-seed execution in parallel with results
-//! independent of the thread count, outputs (config, summary, metrics, Q-tables) and
-//! the paper's experiments.
+//! independent of the thread count, outputs (config, summary, metrics, Q-tables), sweeps
+//! with their stored results and per-cell statistics, and the paper's experiments as
+//! data. Reports of them (markdown, study CSVs, figures) are mmq-report's.
 //!
 //! Architecture invariant: the lab reports progress through a callback and stops on a
 //! flag; it never prints, never owns a progress bar and knows no command-line parser.
@@ -12,7 +13,6 @@ pub mod config;
 pub mod error;
 pub mod exec;
 pub mod fields;
-pub mod format;
 pub mod grid_optimal;
 pub mod lock;
 pub mod output;

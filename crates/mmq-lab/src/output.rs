@@ -24,6 +24,22 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
     mmq_core::files::write_atomic(path, bytes).map_err(io)
 }
 
+/// A CSV field as every CSV of mmq writes it: quoted (RFC 4180) when it holds a comma,
+/// a quote or a line break, or starts or ends with a space; as it is otherwise.
+pub fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) || s.starts_with(' ') || s.ends_with(' ') {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// A number as a CSV field: Rust's shortest round-trip form, `inf`/`-inf`, and empty for
+/// NaN (an absent value).
+pub fn csv_number(x: f64) -> String {
+    if x.is_nan() { String::new() } else { x.to_string() }
+}
+
 /// What kind of output a folder holds, for [`claim_out_dir`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutKind {
@@ -280,6 +296,16 @@ pub fn run_into(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn csv_quotes_and_numbers() {
+        assert_eq!(csv_field("hist:1,2"), "\"hist:1,2\"");
+        assert_eq!(csv_field("say \"hi\""), "\"say \"\"hi\"\"\"");
+        assert_eq!(csv_field("poisson:3"), "poisson:3");
+        assert_eq!(csv_number(f64::NAN), "");
+        assert_eq!(csv_number(0.1), "0.1");
+        assert_eq!(csv_number(f64::NEG_INFINITY), "-inf");
+    }
 
     #[test]
     fn npy_header_is_aligned_and_data_follows() {

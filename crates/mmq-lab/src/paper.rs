@@ -1,13 +1,12 @@
-//! The paper's experiments (Sections IV, V and VII), as data: every figure's numbers
-//! with means and 95 % intervals over seeds, and the CSV behind each. Drawing and the
-//! report live in mmq-report. The same settings ship as sweep specs
+//! The paper's experiments (Sections IV, V and VII), as data: every figure's settings,
+//! their runs over seeds and the numbers behind each figure, with means and 95 %
+//! intervals. Drawing, the CSV files and the report live in mmq-report. The same settings ship as sweep specs
 //! (`worlds/sweeps/paper-*.toml`, tested equal).
 //!
 //! Parameters the paper leaves open, and our choices (docs/reproduction.md):
 //! ε and q0 (Figs. 2–4: ε = 0.05, q0 = 10; Fig. 6: ε = 0.01, q0 = 20, with a sensitivity
 //! table over three settings), the horizon (150,000 steps everywhere, as Fig. 4 states).
 
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use mmq_core::stats::{MeanCi, mean_ci};
@@ -305,24 +304,6 @@ pub fn optimum_of(o: &PaperOptions, world: &str) -> Result<f64, LabError> {
 /// A world of the paper by name.
 pub fn world_of(o: &PaperOptions, world: &str) -> Result<World, LabError> {
     o.world(world)
-}
-
-/// CSV of a curve: one row per point with mean, interval and n.
-pub fn curve_csv(label_col: &str, rows: &[(String, Vec<(u64, MeanCi)>)]) -> String {
-    let mut s = format!("{label_col},step,mean,ci95,n\n");
-    for (label, pts) in rows {
-        for (step, m) in pts {
-            let _ = writeln!(s, "{label},{step},{},{},{}", m.mean, m.ci95, m.n);
-        }
-    }
-    s
-}
-
-/// Writes `text` to `dir/name` atomically and returns the path.
-pub fn write_csv(dir: &Path, name: &str, text: &str) -> Result<PathBuf, LabError> {
-    let p = dir.join(name);
-    crate::output::write_atomic(&p, text.as_bytes())?;
-    Ok(p)
 }
 
 /// One decision step as the reward-timing figure shows it.

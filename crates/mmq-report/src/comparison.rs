@@ -3,6 +3,8 @@
 //! its section of `report.md` — relative performance, fraction of the optimum, greedy
 //! evaluation and the delay estimate against the truth, each with its 95 % interval.
 
+mod csv;
+
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -16,7 +18,7 @@ use mmq_lab::{Control, LabError};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
 
-use mmq_lab::format::{mean_num as num, mean_pct as pct};
+use crate::format::{mean_num as num, mean_pct as pct};
 
 use crate::{Doc, Progress, ReportError};
 
@@ -113,7 +115,7 @@ fn report(o: &ComparisonOptions, seeds: [u64; 4], out: &Path, outs: &[Outcome]) 
                     x.setting.learner_label(),
                     pct(&x.relative),
                     x.ceiling.map_or("—".into(), |c| pct(&c)),
-                    mmq_lab::format::mean_num(&x.regret, 0),
+                    crate::format::mean_num(&x.regret, 0),
                     pct(&x.fraction),
                     num(&x.greedy, 3),
                     x.greedy_min,
@@ -266,8 +268,8 @@ fn report(o: &ComparisonOptions, seeds: [u64; 4], out: &Path, outs: &[Outcome]) 
             &format!("9×9, ε = 0.05, {label}: estimated delay pmf at the end vs the truth"),
         );
     }
-    sec.csv("comparison.csv", &study::outcomes_csv(outs))?;
-    sec.csv("comparison-delay.csv", &study::delay_csv(outs)?)?;
-    sec.csv("comparison-pmf.csv", &study::pmf_csv(outs)?)?;
+    sec.csv("comparison.csv", &csv::outcomes_csv(outs))?;
+    sec.csv("comparison-delay.csv", &csv::delay_csv(outs)?)?;
+    sec.csv("comparison-pmf.csv", &csv::pmf_csv(outs)?)?;
     Ok(sec)
 }

@@ -9,12 +9,14 @@
 //!   sweep, a suite tier, the live view, a recording's drawing and check, and world files'
 //!   checks, carried out for a front end that shows progress and output through
 //!   [`Progress`].
+//! - [`format`](mod@format): numbers as every report and terminal table shows them.
 //!
 //! The library prints nothing: long work reports through a [`Progress`] the caller
 //! supplies (the command line shows a bar), and each entry point returns what it wrote.
 
 mod axes;
 mod comparison;
+pub mod format;
 pub mod leaderboard;
 pub mod live;
 pub mod paper;
@@ -182,7 +184,8 @@ impl Doc {
 
     /// A table's data as `name` (CSV), linked from the markdown.
     fn csv(&mut self, name: &str, text: &str) -> Result<(), ReportError> {
-        let p = mmq_lab::paper::write_csv(&self.out, name, text)?;
+        let p = self.out.join(name);
+        mmq_lab::output::write_atomic(&p, text.as_bytes())?;
         let _ = writeln!(self.md, "Data: [`{name}`]({name})\n");
         self.files.push(p);
         Ok(())

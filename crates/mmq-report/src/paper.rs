@@ -7,11 +7,11 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
+use crate::format::mean_pct as pct;
 use mmq_core::stats::MeanCi;
 use mmq_core::{Move, World};
 use mmq_lab::Control;
 use mmq_lab::config::EnvKind;
-use mmq_lab::format::mean_pct as pct;
 use mmq_lab::paper::{self, Group, PaperOptions};
 use mmq_learn::LearnerKind;
 use mmq_plot::{ActionProbabilities, GridHeatmap, LineChart, PolicyArrows, RefLine, Series};
@@ -63,7 +63,19 @@ fn parts(fig: &str) -> Result<Vec<Part>, ReportError> {
 }
 
 fn num(m: &MeanCi) -> String {
-    mmq_lab::format::mean_num(m, 3)
+    crate::format::mean_num(m, 3)
+}
+
+/// CSV of curves: one row per point with its label in the column `label_col`, the step,
+/// the mean, the half-width of its 95 % interval and the number of seeds.
+fn curve_csv(label_col: &str, rows: &[(String, Vec<(u64, MeanCi)>)]) -> String {
+    let mut s = format!("{label_col},step,mean,ci95,n\n");
+    for (label, pts) in rows {
+        for (step, m) in pts {
+            let _ = writeln!(s, "{label},{step},{},{},{}", m.mean, m.ci95, m.n);
+        }
+    }
+    s
 }
 
 fn series(name: &str, pts: &[(u64, MeanCi)], scale: f64) -> Series {
@@ -259,7 +271,7 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
                 "MMQ regret against the optimum (reward)",
                 "—",
                 "—",
-                Box::new(|g, o| mmq_lab::format::mean_num(&g[0].regret(o), 0)),
+                Box::new(|g, o| crate::format::mean_num(&g[0].regret(o), 0)),
             ),
             (
                 "MMQ greedy evaluation (reward/step)",
@@ -418,10 +430,7 @@ fn fig6(
         chart.write(&rep.path(&format!("fig6{sfx}")))?,
         &format!("Fig. 6{sfx}: relative performance over time"),
     );
-    rep.csv(
-        &format!("fig6{sfx}.csv"),
-        &paper::curve_csv("learner", &[("mmq".into(), cm), ("q".into(), cq)]),
-    )?;
+    rep.csv(&format!("fig6{sfx}.csv"), &curve_csv("learner", &[("mmq".into(), cm), ("q".into(), cq)]))?;
     // Earned and received reward per step over time.
     let mut chart = LineChart::new(
         format!("Fig. 6{sfx}: earned and received reward, {env}"),
@@ -446,7 +455,7 @@ fn fig6(
     );
     let rows: Vec<(String, Vec<(u64, MeanCi)>)> =
         curves.iter().map(|(n, c)| (n.replace(' ', "_"), c.clone())).collect();
-    rep.csv(&format!("fig6-rewards{sfx}.csv"), &paper::curve_csv("series", &rows))?;
+    rep.csv(&format!("fig6-rewards{sfx}.csv"), &curve_csv("series", &rows))?;
     delay_window(mmq, rep, stop, sfx)?;
     differs(
         rep,

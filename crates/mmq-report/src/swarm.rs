@@ -6,7 +6,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use mmq_lab::format::{mean_num, mean_pct};
+use crate::format::{mean_num, mean_pct};
 use mmq_lab::swarm::{DELAY_BINS_S, delay_bin_name};
 use mmq_lab::sweep::{CellStats, Plan};
 use mmq_plot::{LineChart, Series};

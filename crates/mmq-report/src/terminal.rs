@@ -19,11 +19,11 @@ use mmq_lab::sweep::{MergeOutcome, Plan, Shard, SweepOutcome};
 use mmq_log::ReadStop;
 
 use crate::ReportError;
-use crate::sweep::SweepReport;
+use crate::sweep::{SweepReport, plan_size};
 
 /// `mmq sweep --dry-run`: the cells and jobs, the fixed fields, every axis and the seeds.
 pub fn sweep_plan(plan: &Plan, shard: Option<Shard>) -> String {
-    let mut t = format!("sweep {}: {}\n", plan.name, plan.size());
+    let mut t = format!("sweep {}: {}\n", plan.name, plan_size(plan, plan.jobs()));
     if let Some(s) = shard {
         let n = (0..plan.jobs()).filter(|&j| s.contains(j)).count();
         let _ = writeln!(t, "shard {s}: {n} jobs");
@@ -61,7 +61,7 @@ pub fn sweep_planned(
     format!(
         "sweep {}: {}{shard}: {jobs_here} here, {done} already finished, {} to run ({baselines} shared baselines)",
         plan.name,
-        plan.size_with(jobs_total),
+        plan_size(plan, jobs_total),
         jobs_here - done,
     )
 }

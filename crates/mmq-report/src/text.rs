@@ -3,9 +3,9 @@
 
 use std::fmt::Write as _;
 
+use crate::format;
 use mmq_core::{Move, World, optimum};
 use mmq_lab::Summary;
-use mmq_lab::format;
 
 /// A run's summary as a short table: the setting, then each headline metric the run has
 /// (mean ± 95 % interval), its notes and the horizon.

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::report::is_result_metric;
+use super::stats::is_result_metric;
 use super::store::{finish_dir, load_results, read_manifest, write_renamed};
 use super::{MAX_JOB_BYTES, MAX_SPEC_BYTES, Metrics};
 use crate::error::LabError;

@@ -25,9 +25,9 @@ mod cell;
 mod merge;
 mod plan;
 mod product;
-mod report;
 mod run;
 mod spec;
+mod stats;
 mod store;
 mod syntax;
 
@@ -35,17 +35,13 @@ use std::collections::BTreeMap;
 
 pub use merge::{MergeOutcome, merge};
 pub use plan::{Plan, PlanCell, Shard};
-pub(crate) use report::csv_field;
-pub use report::{
-    CellStats, HEADLINE, ROBOT_COLUMNS, axis_number, cell_stats, combine, combined_markdown, learner_labels,
-    learner_markdown, results_csv, robot_markdown, settings, summary_csv, summary_markdown,
-};
 pub use run::{
     CellBatches, CellLearners, EventSink, SweepEvent, SweepOutcome, pending_jobs, run_sweep,
     run_sweep_batched, run_sweep_with,
 };
 pub use spec::SweepSpec;
-pub use store::{Manifest, load_failures, load_results, read_manifest};
+pub use stats::{CellStats, cell_stats, combine};
+pub use store::{Manifest, load_failures, load_results, read_manifest, results_csv};
 
 /// Format tag of `sweep.json` and of the per-job files.
 pub const FORMAT: &str = "mmq-sweep/1";

@@ -124,21 +124,6 @@ impl Plan {
         }
     }
 
-    /// Its size in words: `6 cells × 3 seeds = 18 jobs`, or for cells with seeds of their
-    /// own `16 cells, 410 jobs (seeds per part)`.
-    pub fn size(&self) -> String {
-        self.size_with(self.jobs())
-    }
-
-    /// [`Plan::size`] with the number of jobs given.
-    pub fn size_with(&self, jobs: usize) -> String {
-        if self.uniform() {
-            format!("{} cells × {} seeds = {jobs} jobs", self.cells.len(), self.seeds.len())
-        } else {
-            format!("{} cells, {jobs} jobs (seeds per part)", self.cells.len())
-        }
-    }
-
     /// The value of `field` in cell `cell`.
     pub fn param(&self, cell: usize, field: &str) -> &str {
         let i = self.fields.iter().position(|f| f == field).unwrap_or(usize::MAX);

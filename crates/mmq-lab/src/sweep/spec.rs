@@ -400,7 +400,7 @@ mod tests {
         assert_eq!(p.jobs(), 4 * 2 + 3);
         assert_eq!((p.job(7), p.job(8), p.job(10)), ((3, 1), (4, 7), (4, 9)));
         assert_eq!((p.cell_jobs(3), p.cell_jobs(4)), (6..8, 8..11));
-        assert_eq!(p.size(), "5 cells, 11 jobs (seeds per part)");
+        assert!(!p.uniform());
         let told = s.config(4).learner.settings.deconv().and_then(|d| d.told_delay.clone());
         assert_eq!(told.as_deref(), Some("poisson:3"));
         assert_eq!((s.config(1).delay.as_str(), s.config(4).steps), ("poisson:2", 100));
@@ -408,7 +408,8 @@ mod tests {
         let alone = spec(&format!("{base}delay = [\"poisson:1\", \"poisson:2\"]\n")).unwrap();
         let ids = |p: &Plan| p.cells.iter().map(|c| c.id.clone()).collect::<Vec<_>>();
         assert_eq!(ids(&alone.plan), ids(p)[..4]);
-        assert_eq!(alone.plan.size(), "4 cells × 2 seeds = 8 jobs");
+        assert!(alone.plan.uniform());
+        assert_eq!((alone.plan.seeds.len(), alone.plan.jobs()), (2, 8));
 
         let e = spec(&format!("{base}[[part]]\ndelay = \"poisson:1\"\n[[part]]\ndelay = \"poisson:1\"\n"))
             .unwrap_err()

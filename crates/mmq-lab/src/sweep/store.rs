@@ -1,17 +1,18 @@
 //! Stored results: `sweep.json` (the manifest), one file per finished job, written
 //! by rename so that readers never see a part, and read back bit for bit.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::plan::{Plan, Shard};
-use super::report::results_csv;
+use super::stats::is_result_metric;
 use super::{FORMAT, MAX_JOB_BYTES, MAX_MANIFEST_BYTES, Metrics};
 use crate::error::LabError;
-use crate::output::write_atomic;
+use crate::output::{csv_field, csv_number, write_atomic};
 
 /// `sweep.json`: the plan and the status of one output directory.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -170,6 +171,50 @@ pub(super) fn write_manifest(dir: &Path, m: &Manifest) -> Result<(), LabError> {
     write_atomic(&dir.join("sweep.json"), text.as_bytes())
 }
 
+/// The tidy results table: a row per finished job in plan order (cells in product
+/// order, seeds in spec order); columns `cell`, the swept parameters in [`super::FIELDS`]
+/// order, `seed`, then every metric present in any row, in name order (empty where a
+/// cell has no such metric, and for NaN). Returns the text and the number of rows.
+pub fn results_csv(plan: &Plan, results: &[Option<Metrics>]) -> (String, usize) {
+    let metrics: BTreeSet<&str> = results
+        .iter()
+        .flatten()
+        .flat_map(|m| m.keys())
+        .map(String::as_str)
+        .filter(|k| is_result_metric(k))
+        .collect();
+    let axes: Vec<usize> = plan.axes.iter().filter_map(|a| plan.fields.iter().position(|f| f == a)).collect();
+    let mut out = String::from("cell");
+    for &a in &axes {
+        out.push(',');
+        out.push_str(&csv_field(&plan.fields[a]));
+    }
+    out.push_str(",seed");
+    for m in &metrics {
+        out.push(',');
+        out.push_str(&csv_field(m));
+    }
+    out.push('\n');
+    let mut rows = 0;
+    for (j, r) in results.iter().enumerate() {
+        let Some(r) = r else { continue };
+        let (c, seed) = plan.job(j);
+        out.push_str(&plan.cells[c].id);
+        for &a in &axes {
+            out.push(',');
+            out.push_str(&csv_field(&plan.cells[c].params[a]));
+        }
+        let _ = write!(out, ",{seed}");
+        for m in &metrics {
+            out.push(',');
+            out.push_str(&r.get(*m).map_or(String::new(), |&x| csv_number(x)));
+        }
+        out.push('\n');
+        rows += 1;
+    }
+    (out, rows)
+}
+
 /// Writes `DIR/results.csv` and `DIR/sweep.json` from the files in `dir`.
 pub(super) fn finish_dir(
     dir: &Path,
@@ -204,6 +249,12 @@ pub(super) fn finish_dir(
 mod tests {
     use super::super::plan::PlanCell;
     use super::*;
+
+    #[test]
+    fn stored_numbers_read_back() {
+        assert_eq!(encode(f64::INFINITY).parse::<f64>().unwrap(), f64::INFINITY);
+        assert!(encode(f64::NAN).parse::<f64>().unwrap().is_nan());
+    }
 
     /// The `seed` metric of a job file is its job's seed as an exact integer; below 2^53
     /// its text is the float's text, as before.

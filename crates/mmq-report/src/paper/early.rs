@@ -5,9 +5,9 @@
 use std::fmt::Write as _;
 use std::sync::atomic::AtomicBool;
 
+use crate::format::mean_pct as pct;
 use mmq_core::stats::MeanCi;
 use mmq_lab::RunConfig;
-use mmq_lab::format::mean_pct as pct;
 use mmq_lab::paper::{self, Group, PaperOptions};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
@@ -203,7 +203,7 @@ pub(super) fn fig3(
     chart.ref_lines.push(RefLine::new("undelayed Q-learning (100 %)", 100.0));
     chart.y_range = Some((-20.0, 140.0));
     rep.figure(chart.write(&rep.path("fig3"))?, &format!("Fig. 3: relative performance over time, {lambda}"));
-    rep.csv("fig3.csv", &paper::curve_csv("world", &rows))
+    rep.csv("fig3.csv", &super::curve_csv("world", &rows))
 }
 
 pub(super) fn fig4(

@@ -5,7 +5,7 @@
 use std::fmt::Write as _;
 use std::sync::atomic::AtomicBool;
 
-use mmq_lab::format::mean_pct as pct;
+use crate::format::mean_pct as pct;
 use mmq_lab::paper::{self, PaperOptions};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine};
@@ -186,5 +186,5 @@ pub(super) fn horizon(
         chart.write(&rep.path("horizon"))?,
         "Relative performance against the horizon (the ratio at the paper's horizon is the headline)",
     );
-    rep.csv("horizon.csv", &paper::curve_csv("learner", &[("mmq".into(), curve)]))
+    rep.csv("horizon.csv", &super::curve_csv("learner", &[("mmq".into(), curve)]))
 }
