@@ -356,8 +356,8 @@ pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> 
             robot_env(world)?;
         }
         EnvKind::Swarm => {
-            crate::swarm::swarm_env_with(world, &cfg.swarm)?;
-            crate::swarm::check_swarm(cfg, world)?;
+            let env = crate::swarm::swarm_env_with(world, &cfg.swarm)?;
+            crate::swarm::check_learners(cfg, env.swarm())?;
         }
     }
     let seeds = cfg.seed_list();

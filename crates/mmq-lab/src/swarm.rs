@@ -57,11 +57,18 @@ pub fn swarm_env(world: &World) -> Result<SwarmEnv, LabError> {
 /// shared learners, that the learner can share its tables.
 pub(crate) fn check_swarm(cfg: &RunConfig, world: &World) -> Result<SwarmConfig, LabError> {
     let swarm = SwarmConfig::from_world(world, &cfg.swarm).map_err(|e| LabError::EnvBuild(e.to_string()))?;
+    check_learners(cfg, &swarm)?;
+    Ok(swarm)
+}
+
+/// Whether `cfg`'s learner can be assigned as `swarm` asks (sharing needs a learner that
+/// shares its tables).
+pub(crate) fn check_learners(cfg: &RunConfig, swarm: &SwarmConfig) -> Result<(), LabError> {
     let kind = cfg.learner.kind();
     if swarm.learners == Learners::Shared && !kind.shares_tables() {
         return Err(unshareable(kind.name()));
     }
-    Ok(swarm)
+    Ok(())
 }
 
 fn unshareable(name: &str) -> LabError {

@@ -321,9 +321,26 @@ impl SwarmRecorder {
         }
         let writer = LogWriter::new(writer, CHUNK_SIZE, config.writer_thread)
             .map_err(|e| mcap_err("start the log writer thread", e))?;
-        Ok(Self {
+        Ok(Self::with_outputs(config, Some(writer), channel_ids, None))
+    }
+
+    /// A recorder that writes no file and shows the swarm in a live view only (of
+    /// `config`, the pose rate is used).
+    pub fn live_only(config: RecorderConfig, live: LiveTap) -> Self {
+        Self::with_outputs(config, None, [0; NCH], Some(live))
+    }
+
+    /// A recorder writing to `writer` (channels `channel_ids`) and/or showing on `live`,
+    /// before its start.
+    fn with_outputs(
+        config: RecorderConfig,
+        writer: Option<LogWriter<BufWriter<File>>>,
+        channel_ids: [u16; NCH],
+        live: Option<LiveTap>,
+    ) -> Self {
+        Self {
             config,
-            writer: Some(writer),
+            writer,
             channel_ids,
             counts: [0; NCH],
             error: None,
@@ -335,28 +352,7 @@ impl SwarmRecorder {
             steps: 0,
             last_flush: Instant::now(),
             stats: RecordStats::default(),
-            live: None,
-        })
-    }
-
-    /// A recorder that writes no file and shows the swarm in a live view only (of
-    /// `config`, the pose rate is used).
-    pub fn live_only(config: RecorderConfig, live: LiveTap) -> Self {
-        Self {
-            config,
-            writer: None,
-            channel_ids: [0; NCH],
-            counts: [0; NCH],
-            error: None,
-            failed: None,
-            run: None,
-            last_ns: 0,
-            next_trail_point_s: 0.0,
-            next_trail_msg_s: 0.0,
-            steps: 0,
-            last_flush: Instant::now(),
-            stats: RecordStats::default(),
-            live: Some(live),
+            live,
         }
     }
 
@@ -405,8 +401,7 @@ impl SwarmRecorder {
             |out: &mut Vec<u8>| serde_json::to_writer(out, msg).expect("JSON serialization of a log message");
         let i = ch as usize;
         let Self { live, writer, channel_ids, .. } = self;
-        let wanted = live.as_mut().is_some_and(|l| l.wants(i));
-        let r = match live.as_mut().filter(|_| wanted) {
+        let r = match live.as_mut().and_then(|l| if l.wants(i) { Some(l) } else { None }) {
             // Serialized once, for the view and the file.
             Some(tap) => {
                 let bytes = tap.send(i, log_time, json);
