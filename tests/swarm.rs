@@ -88,13 +88,16 @@ fn a_swarms_results_do_not_depend_on_the_thread_count() {
 }
 
 /// Parameter sharing: deterministic on any thread count, and not the independent
-/// learners' results (one table learns from every robot).
+/// learners' results (one table learns from every robot); for a tabular learner and for
+/// a deconvolving one (one reward fit and delay estimate, a stream per robot).
 #[test]
 fn a_shared_learner_is_deterministic_and_learns_from_every_robot() {
-    let shared = [consulting_swarm("1", "q-lambda", "shared"), consulting_swarm("2", "q-lambda", "shared")];
-    assert_eq!(shared[0], shared[1]);
-    let own = consulting_swarm("1", "q-lambda", "independent");
-    assert_ne!(shared[0].1, own.1, "the shared run's metrics equal the independent run's");
+    for learner in ["q-lambda", "deconv-model"] {
+        let shared = [consulting_swarm("1", learner, "shared"), consulting_swarm("2", learner, "shared")];
+        assert_eq!(shared[0], shared[1], "{learner}");
+        let own = consulting_swarm("1", learner, "independent");
+        assert_ne!(shared[0].1, own.1, "{learner}: the shared run's metrics equal the independent run's");
+    }
 }
 
 /// A sweep takes swarm settings as an axis, and its report has the swarm's section with

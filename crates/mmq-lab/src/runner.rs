@@ -356,8 +356,7 @@ pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> 
             robot_env(world)?;
         }
         EnvKind::Swarm => {
-            let env = crate::swarm::swarm_env_with(world, &cfg.swarm)?;
-            crate::swarm::check_learners(cfg, env.swarm())?;
+            crate::swarm::swarm_env_with(world, &cfg.swarm)?;
         }
     }
     let seeds = cfg.seed_list();

@@ -5,8 +5,8 @@
 //! Learners (`[swarm] learners`): `independent`, a learner of its own per robot; or
 //! `shared` (parameter sharing), one learner whose tables every robot updates, each robot
 //! with its own memory of its past steps (swapped in before the robot acts or learns:
-//! [`mmq_learn::MemorySlots`]). Only learners whose memory separates from their tables
-//! can share ([`mmq_learn::LearnerKind::shares_tables`]; the deconvolving ones cannot).
+//! [`mmq_learn::MemorySlots`]). Every learner of mmq can share
+//! ([`mmq_learn::Learner::shares_tables`]); an agent from outside mmq may not.
 //!
 //! The seed's trajectory is the swarm's: rewards and the learning curve are the mean
 //! over robots (so fractions of the optimum read as the single robot's), while counts
@@ -53,32 +53,19 @@ pub fn swarm_env(world: &World) -> Result<SwarmEnv, LabError> {
     swarm_env_with(world, &[])
 }
 
-/// The swarm's settings of `cfg` on `world`, checked: the `[swarm]` table and, for
-/// shared learners, that the learner can share its tables.
+/// The swarm's settings of `cfg` on `world`, checked (the `[swarm]` table).
 pub(crate) fn check_swarm(cfg: &RunConfig, world: &World) -> Result<SwarmConfig, LabError> {
-    let swarm = SwarmConfig::from_world(world, &cfg.swarm).map_err(|e| LabError::EnvBuild(e.to_string()))?;
-    check_learners(cfg, &swarm)?;
-    Ok(swarm)
+    SwarmConfig::from_world(world, &cfg.swarm).map_err(|e| LabError::EnvBuild(e.to_string()))
 }
 
-/// Whether `cfg`'s learner can be assigned as `swarm` asks (sharing needs a learner that
-/// shares its tables).
-pub(crate) fn check_learners(cfg: &RunConfig, swarm: &SwarmConfig) -> Result<(), LabError> {
-    let kind = cfg.learner.kind();
-    if swarm.learners == Learners::Shared && !kind.shares_tables() {
-        return Err(unshareable(kind.name()));
-    }
-    Ok(())
-}
-
+/// A learner from outside mmq that cannot share its tables between robots.
 fn unshareable(name: &str) -> LabError {
     LabError::param(
         "swarm",
         "learners=shared",
         &format!(
-            "{name} builds its statistics from one trajectory's consecutive steps and cannot share \
-             its tables between robots; use learners=independent, or a tabular learner \
-             (q, fixed, mmq, mmq-kernel, q-lambda, sarsa-lambda, oracle)"
+            "{name} cannot share its tables between robots (it keeps no separate memory per \
+             robot); use learners=independent, or one of mmq's learners, which all can"
         ),
     )
 }

@@ -104,11 +104,12 @@ pub fn find_values(seen: &HashMap<i64, (f64, u32)>, nonzero: u64) -> Vec<f64> {
     values
 }
 
-/// One step of history: pair, next state, delivery.
+/// One step of history: pair, next state, delivery, and the trajectory that took it.
 #[derive(Clone, Copy, Debug)]
 struct Step {
     x: u32,
     next: u32,
+    stream: u32,
     r: f64,
 }
 
@@ -125,9 +126,13 @@ pub struct ValueDeconvolver {
     parts: Vec<Deconvolver>,
     /// R̂ = Σ_v R̂_v by pair id (with values).
     r: Vec<f64>,
-    /// Every step (with decoding on), and the steps at which a new run started.
+    /// Every step (with decoding on), and the steps at which a new run of a trajectory
+    /// started (with that trajectory).
     hist: Vec<Step>,
-    runs: Vec<usize>,
+    runs: Vec<(usize, u32)>,
+    /// The trajectory being fed, and the trajectories so far ([`Self::set_stream`]).
+    stream: usize,
+    streams: usize,
     /// Each non-zero delivered value (as first seen) and the times it was seen, by key;
     /// and the non-zero deliveries.
     seen: HashMap<i64, (f64, u32)>,
@@ -170,6 +175,8 @@ impl ValueDeconvolver {
             r: vec![0.0; num_states * num_actions],
             hist: Vec::new(),
             runs: Vec::new(),
+            stream: 0,
+            streams: 1,
             seen: HashMap::new(),
             nonzero: 0,
             cache: HashMap::new(),
@@ -286,7 +293,7 @@ impl ValueDeconvolver {
         if !self.cfg.settings.decode_values {
             return self.parts[0].observe_transition(x, next_state, reward);
         }
-        self.hist.push(Step { x: x as u32, next: next_state as u32, r: reward });
+        self.hist.push(Step { x: x as u32, next: next_state as u32, stream: self.stream as u32, r: reward });
         if reward != 0.0 {
             self.seen.entry(key(reward)).or_insert((reward, 0)).1 += 1;
             self.nonzero += 1;
@@ -373,10 +380,16 @@ impl ValueDeconvolver {
         let runs = self.runs.clone();
         let mut run = runs.iter().peekable();
         for j in 0..self.hist.len() {
-            while run.next_if(|&&start| start == j).is_some() {
-                parts.iter_mut().for_each(Deconvolver::reset_history);
+            while let Some(&(_, stream)) = run.next_if(|&&(start, _)| start == j) {
+                for d in parts.iter_mut() {
+                    d.set_stream(stream as usize);
+                    d.reset_history();
+                }
             }
             let s = self.hist[j];
+            for d in parts.iter_mut() {
+                d.set_stream(s.stream as usize);
+            }
             let shares = self.shares(s.r);
             for (d, &share) in parts.iter_mut().zip(&shares) {
                 d.record_successor(s.x as usize, s.next as usize);
@@ -385,6 +398,8 @@ impl ValueDeconvolver {
         }
         for d in &mut parts {
             d.inherit(&self.parts[0]);
+            d.set_stream(self.streams - 1);
+            d.set_stream(self.stream);
         }
         self.parts = parts;
         self.refit();
@@ -412,15 +427,38 @@ impl ValueDeconvolver {
         d
     }
 
-    /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
+    /// Forgets the last K steps of the trajectory being fed (a new run starts);
+    /// statistics, R̂ and p̂ are kept.
     pub fn reset_history(&mut self) {
         self.parts.iter_mut().for_each(Deconvolver::reset_history);
         if let Some(m) = self.surprise.as_mut() {
             m.restart();
         }
         if self.cfg.settings.decode_values {
-            self.runs.push(self.hist.len());
+            self.runs.push((self.hist.len(), self.stream as u32));
         }
+    }
+
+    /// The trajectory being fed (0 until [`Self::set_stream`]).
+    pub fn stream(&self) -> usize {
+        self.stream
+    }
+
+    /// A new trajectory's number, for [`Self::set_stream`].
+    pub fn new_stream(&mut self) -> usize {
+        self.streams += 1;
+        self.streams - 1
+    }
+
+    /// Feeds trajectory `i` (0, or a number from [`Self::new_stream`]) from now on: its
+    /// steps are lagged only against its own (parameter sharing: the robots of a swarm
+    /// fit one R̂ and one p̂, each delivery explained by its own robot's past pairs). The
+    /// test (S) is one over every trajectory's residuals: each is zero-mean under the
+    /// model, whichever robot it came from.
+    pub fn set_stream(&mut self, i: usize) {
+        debug_assert!(i < self.streams, "stream {i} of {}", self.streams);
+        self.stream = i;
+        self.parts.iter_mut().for_each(|d| d.set_stream(i));
     }
 }
 
@@ -496,6 +534,44 @@ mod tests {
         assert_eq!(at, [50, 100, 200, 400, 450, 500, 550, 600]);
         assert!((r - 800.0 / 300.0).abs() < 1e-9, "R̂(0) = {r}");
         assert_eq!(surprised, Some(4.0));
+    }
+
+    /// Two chains on disjoint states (0..3 and 3..6) as two trajectories taking turns; the
+    /// second starts half-way and bumps for −2.5, a third value, so the values change late
+    /// and the per-value deconvolvers are rebuilt from the whole history, each step
+    /// replayed in its own trajectory. R̂ has each chain's rewards on its own pairs.
+    #[test]
+    fn a_rebuild_replays_each_trajectory_as_its_own() {
+        let steps = 60_000;
+        let mut d = ValueDeconvolver::new(config(), 6, 2);
+        let b = d.new_stream();
+        let mut rng = rng_from_seed(9);
+        // Per chain: its state, its deliveries by its own step, its steps, its bump.
+        let mut chains = [(0, vec![0.0; steps + 4], 0, -1.0), (0, vec![0.0; steps + 4], 0, -2.5)];
+        for t in 0..steps {
+            let i = usize::from(t >= steps / 2 && rng.random_bool(0.5));
+            d.set_stream([0, b][i]);
+            let (s, pending, u, bump) = &mut chains[i];
+            let a = usize::from(rng.random_bool(0.3));
+            let (s2, r) = match (*s, a) {
+                (2, _) => (0, 10.0),
+                (s, 0) => (s + 1, 0.0),
+                (s, _) => (s, *bump),
+            };
+            if r != 0.0 {
+                pending[*u + rng.random_range(1..=3)] += r;
+            }
+            d.observe_transition((3 * i + *s) * 2 + a, 3 * i + s2, pending[*u]);
+            (*s, *u) = (s2, *u + 1);
+        }
+        d.refit();
+        assert_eq!(d.values(), [-2.5, -1.0, 10.0]);
+        let mut want = [0.0; 12];
+        (want[1], want[3], want[4], want[5]) = (-1.0, -1.0, 10.0, 10.0);
+        (want[7], want[9], want[10], want[11]) = (-2.5, -2.5, 10.0, 10.0);
+        for (x, (&got, w)) in d.rewards().iter().zip(want).enumerate() {
+            assert!((got - w).abs() < 0.5, "R̂({x}) = {got}, want {w}: {:?}", d.rewards());
+        }
     }
 
     /// With one reward value there is nothing to decode: every step, R̂ and p̂ are those of

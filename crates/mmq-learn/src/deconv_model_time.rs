@@ -34,10 +34,11 @@ use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
 use crate::deconv::{DeconvConfig, DeconvSettings};
-use crate::deconv_model::{DeconvModel, ExploreSettings, Probes};
+use crate::deconv_model::{DeconvModel, ExploreSettings, Probes, Trajectory};
 use crate::diagnostics::Diagnostics;
 use crate::error::{LearnError, bad};
 use crate::learner::{Decision, Experience, Learner, Table};
+use crate::memory::Memory;
 use crate::params::Params;
 
 /// Settings of `deconv-model-time`.
@@ -210,6 +211,18 @@ impl Learner for DeconvModelTime {
     fn reset_history(&mut self) {
         self.inner.reset_history();
         self.last_bin = None;
+    }
+
+    /// Each robot keeps its own bins: its stream in the model and its last decision's bin.
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let mut mine = (self.inner.take_trajectory(), self.last_bin);
+        other.swap_with(&mut mine, || (Trajectory::default(), None));
+        self.inner.put_trajectory(mine.0);
+        self.last_bin = mine.1;
     }
 }
 

@@ -18,6 +18,7 @@ use crate::deconv::{DeconvConfig, DeconvSettings};
 use crate::diagnostics::Diagnostics;
 use crate::error::{LearnError, bad};
 use crate::learner::{Experience, Learner, Table, max_of};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
@@ -140,6 +141,20 @@ impl Learner for DeconvQ {
     fn reset_history(&mut self) {
         self.seen = 0;
         self.deconv.reset_history();
+    }
+
+    /// Each robot keeps its stream in the deconvolver and its own replay history.
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        let n = self.history.len();
+        let mut mine = (Some(self.deconv.stream()), std::mem::take(&mut self.history), self.seen);
+        other.swap_with(&mut mine, || (None, vec![(0, 0, 0); n], 0));
+        let stream = mine.0.unwrap_or_else(|| self.deconv.new_stream());
+        self.deconv.set_stream(stream);
+        (self.history, self.seen) = (mine.1, mine.2);
     }
 }
 

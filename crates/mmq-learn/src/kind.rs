@@ -96,13 +96,6 @@ impl LearnerKind {
         catalogue().into_iter().find(|c| c.0 == self).map_or("?", |c| c.1)
     }
 
-    /// Whether the learner can share its tables between trajectories (parameter sharing,
-    /// [`crate::Learner::shares_tables`]): the tabular learners can; the deconvolving ones
-    /// build their statistics from one trajectory's consecutive steps and cannot.
-    pub fn shares_tables(self) -> bool {
-        !matches!(self, LearnerKind::DeconvQ | LearnerKind::DeconvModel | LearnerKind::DeconvModelTime)
-    }
-
     /// Parses a command-line name.
     pub fn parse(name: &str) -> Result<LearnerKind, LearnError> {
         catalogue().into_iter().find(|c| c.1 == name).map(|c| c.0).ok_or_else(|| LearnError::UnknownLearner {

@@ -8,8 +8,11 @@
 //! with separate memories A's action values and A's actions are those of A alone, bit for
 //! bit, however the turns interleave. A memory shared by mistake would credit A's rewards
 //! to B's recent pairs (and the other way round), which the second test shows changes
-//! them. (mmq-kernel is the exception by design: its kernel is centred on a leader that
-//! all trajectories elect; its memory is checked by the second test.)
+//! them. (mmq-kernel is an exception by design: its kernel is centred on a leader that
+//! all trajectories elect; its memory is checked by the second test. So are the
+//! deconvolving learners, whose delay estimate and refit times pool every trajectory's
+//! steps: the last test checks that each reward is credited to its own trajectory's
+//! pairs.)
 
 use mmq_core::seed::rng_from_seed;
 use mmq_core::{Rng, State};
@@ -122,24 +125,23 @@ fn shareable() -> Vec<LearnerKind> {
     catalogue().into_iter().map(|(k, _, _)| k).filter(|&k| build(k).shares_tables()).collect()
 }
 
+/// The deconvolving learners: their delay estimate and refit times pool every
+/// trajectory's steps by design, so A's outcome depends on B; checked by their reward fit.
+fn deconvolving(kind: LearnerKind) -> bool {
+    kind.name().starts_with("deconv")
+}
+
 #[test]
-fn the_learners_that_share_are_the_tabular_ones() {
-    let names: Vec<&str> = shareable().iter().map(|k| k.name()).collect();
-    assert_eq!(
-        names,
-        ["q", "fixed", "mmq", "mmq-reference", "mmq-kernel", "q-lambda", "sarsa-lambda", "oracle"],
-        "a learner changed whether it shares its tables; update docs/swarm.md"
-    );
-    for (kind, _, _) in catalogue() {
-        assert_eq!(kind.shares_tables(), build(kind).shares_tables(), "{}", kind.name());
-    }
+fn every_learner_shares() {
+    let all: Vec<LearnerKind> = catalogue().into_iter().map(|(k, _, _)| k).collect();
+    assert_eq!(shareable(), all, "a learner stopped sharing its tables; update docs/swarm.md");
 }
 
 #[test]
 fn a_shared_learner_with_separate_memories_learns_each_trajectory_as_alone() {
     // mmq-kernel's credit is centred on the model chosen most often by every trajectory
     // (its leader): B's choices move it, so A's updates depend on B by design.
-    for kind in shareable().into_iter().filter(|k| k.name() != "mmq-kernel") {
+    for kind in shareable().into_iter().filter(|&k| k.name() != "mmq-kernel" && !deconvolving(k)) {
         let (solo, shared) = runs(kind, true);
         assert_eq!(solo.0.len(), 400, "{}", kind.name());
         assert_eq!(solo, shared, "{}: A's actions and values differ from A alone", kind.name());
@@ -153,5 +155,50 @@ fn one_memory_for_both_trajectories_would_change_them() {
     for kind in shareable().into_iter().filter(|k| k.name() != "q") {
         let (solo, mixed) = runs(kind, false);
         assert_ne!(solo, mixed, "{}: the test cannot see a shared memory", kind.name());
+    }
+}
+
+/// R̂ of a deconvolving learner shared by A and B: A's +10 on pairs of A's ring, B's −4
+/// on pairs of B's ring, nothing else. (Which pairs of a ring: the move into the goal
+/// cell, or, one step less delayed, the goal cell's own moves, which always follow it;
+/// the fit prefers the latter, [`mmq_learn::deconv`]'s successor groups.) With one
+/// memory for both, B's steps stand between A's and their rewards, and the fit credits
+/// the other ring's pairs.
+#[test]
+fn a_shared_deconvolving_learner_credits_each_reward_to_its_own_trajectory() {
+    // Per ring: its largest and smallest R̂.
+    let ranges = |r: &[f64]| {
+        let range = |v: &[f64]| v.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &x| (lo.min(x), hi.max(x)));
+        (range(&r[..2 * RING]), range(&r[2 * RING..]))
+    };
+    for kind in shareable().into_iter().filter(|&k| deconvolving(k)) {
+        let fit = |separate: bool| {
+            let mut shared = build(kind);
+            let mut walkers = [Walker::new(0, 3, 10.0, 7), Walker::new(RING, 2, -4.0, 8)];
+            let mut slots = MemorySlots::new(2);
+            for i in turns(6000) {
+                if separate {
+                    slots.load(i, |m| shared.swap_memory(m));
+                }
+                walkers[i].step(&mut *shared);
+            }
+            let tables = shared.tables();
+            tables.into_iter().find(|t| t.name == "r_hat").expect("R̂ is exported").data
+        };
+        let own = fit(true);
+        let ((a_lo, a_hi), (b_lo, b_hi)) = ranges(&own);
+        let near = |x: f64, v: f64| (x - v).abs() < 0.5 + 0.1 * v.abs();
+        assert!(
+            near(a_lo, 0.0) && near(a_hi, 10.0) && near(b_lo, -4.0) && near(b_hi, 0.0),
+            "{}: R̂ = {own:?}",
+            kind.name()
+        );
+        let mixed = fit(false);
+        let ((a_lo, a_hi), (b_lo, b_hi)) = ranges(&mixed);
+        assert!(
+            !(near(a_lo, 0.0) && near(a_hi, 10.0) && near(b_lo, -4.0) && near(b_hi, 0.0)),
+            "{}: one memory for both went unseen: R̂ = {mixed:?}",
+            kind.name()
+        );
     }
 }

@@ -58,6 +58,8 @@ mod refit;
 mod reward_fit;
 mod settings;
 mod stats;
+#[cfg(test)]
+mod streams;
 
 pub use crate::pmf::{MedianSe, pmf_mean, pmf_median, truncated_pmf};
 pub(crate) use counts::MAX_PAIRS;
@@ -127,14 +129,12 @@ pub struct Deconvolver {
     succ: Vec<u32>,
     /// |A|: pair id x belongs to state x / |A|.
     num_actions: usize,
-    /// The lag co-occurrence counts and lagged reward sums (and the step count). Shared
-    /// (copy on write) with the copy a refit's cold start runs on, which only reads them.
+    /// The lag co-occurrence counts and lagged reward sums, the step count, and each
+    /// trajectory's last pairs and history (the pairs and deliveries of its current run,
+    /// for the reweighted pmf fit; at most [`HISTORY_MAX`] steps, the oldest dropped).
+    /// Shared (copy on write) with the copy a refit's cold start runs on, which only
+    /// reads them.
     stats: Arc<LagStats>,
-    /// Compact pair index and delivered reward of every step of the current run (for
-    /// the reweighted pmf fit; at most [`HISTORY_MAX`] steps, the oldest dropped); shared
-    /// as `stats` is.
-    hist_x: Arc<Vec<u32>>,
-    hist_r: Arc<Vec<f64>>,
     /// Residual sum of squares of the last fit of R (None before the first).
     rss: Option<f64>,
     next_refit: u64,
@@ -197,8 +197,6 @@ impl Deconvolver {
             succ: vec![UNSEEN; num_pairs],
             num_actions,
             stats: Arc::new(LagStats::new(num_pairs, k, counts)),
-            hist_x: Arc::default(),
-            hist_r: Arc::default(),
             rss: None,
             refits: 0,
             cold_starts: 0,
@@ -257,11 +255,21 @@ impl Deconvolver {
         self.stats.t
     }
 
-    /// The pairs of the current run's last K + 1 steps, the latest first (lag 0, 1, …).
+    /// The pairs of the current run's last K + 1 steps (the fed trajectory's), the latest
+    /// first (lag 0, 1, …).
     pub(crate) fn recent_pairs(&self) -> impl Iterator<Item = usize> + '_ {
-        let st = &self.stats;
-        let n = (st.t - st.start).min(self.cfg.settings.max_delay as u64 + 1);
-        (0..n).map(move |k| st.pairs[st.past(st.t - 1 - k)] as usize)
+        let (st, tr) = (&self.stats, self.stats.trail());
+        let n = (tr.t - tr.start).min(self.cfg.settings.max_delay as u64 + 1);
+        (0..n).map(move |k| st.pairs[tr.past(tr.t - 1 - k)] as usize)
+    }
+
+    /// Feeds trajectory `i` from now on: its steps are lagged only against its own, so
+    /// several trajectories (the robots of a swarm sharing one learner) fit one R̂ and
+    /// one p̂ (trajectories are numbered from 0 in the order they start).
+    pub(crate) fn set_stream(&mut self, i: usize) {
+        if i != self.stats.active() {
+            Arc::make_mut(&mut self.stats).set_trail(i);
+        }
     }
 
     /// Bytes held by the co-occurrence counts now (0 for a deconvolver that uses
@@ -337,15 +345,10 @@ impl Deconvolver {
 
     /// One step's statistics (no refit): pair `x` taken, `reward` delivered.
     pub(crate) fn record(&mut self, x: usize, reward: f64) {
-        let i = Arc::make_mut(&mut self.stats).record(x, reward);
+        let st = Arc::make_mut(&mut self.stats);
+        let i = st.record(x, reward);
         if self.cfg.settings.pmf_weighted && self.cfg.told.is_none() {
-            let (hx, hr) = (Arc::make_mut(&mut self.hist_x), Arc::make_mut(&mut self.hist_r));
-            if hx.len() == HISTORY_MAX {
-                hx.drain(..HISTORY_MAX / 2);
-                hr.drain(..HISTORY_MAX / 2);
-            }
-            hx.push(i as u32);
-            hr.push(reward);
+            st.push_history(i, reward, HISTORY_MAX);
         }
     }
 
@@ -368,11 +371,10 @@ impl Deconvolver {
         self.sign = if sign == 0.0 { 0.0 } else { sign.signum() };
     }
 
-    /// Forgets the last K steps (a new run starts); statistics, R̂ and p̂ are kept.
+    /// Forgets the last K steps of the fed trajectory (a new run starts); statistics, R̂
+    /// and p̂ are kept.
     pub fn reset_history(&mut self) {
         Arc::make_mut(&mut self.stats).reset_history();
-        Arc::make_mut(&mut self.hist_x).clear();
-        Arc::make_mut(&mut self.hist_r).clear();
     }
 
     /// Diagnostics: the delay estimate p̂ (with its mean, median and the median's

@@ -4,7 +4,7 @@
 
 use super::Deconvolver;
 use super::qp::{add_roughness, solve_pmf};
-use super::stats::LagStats;
+use super::stats::{LagStats, Trail};
 use crate::pmf::{MedianSe, pmf_median};
 
 /// A least-squares system ½ pᵀAp − cᵀp of the pmf fit: (A, c).
@@ -71,18 +71,23 @@ impl Deconvolver {
         let q = counts.lag_products(&support, &r);
         let cvec = st.lagged_reward_sums(&r, &support);
         // A_{kk'} = Σ_t y_{t−k} y_{t−k'} = q_{|k−k'|} − E(|k−k'|, min(k, k')), where
-        // E(j, m) = Σ_{u=T−m}^{T−1} y_{u−j} y_u removes the windows that end after now.
-        let (big_t, start) = (st.t, st.start);
-        let y_at = |u: u64| r[st.past(u)];
+        // E(j, m) = Σ_{u=T−m}^{T−1} y_{u−j} y_u removes the windows that end after now,
+        // summed over the trajectories (each with its own T and run start).
         let mut e = vec![0.0; k_n * k_n];
-        for j in 0..k_n {
-            let mut acc = 0.0;
-            for m in 1..k_n {
-                if big_t >= start + m as u64 + j as u64 {
-                    let u = big_t - m as u64;
-                    acc += y_at(u - j as u64) * y_at(u);
+        for (n_tr, tr) in st.trails().iter().enumerate() {
+            let (big_t, start) = (tr.t, tr.start);
+            let y_at = |u: u64| r[tr.past(u)];
+            for j in 0..k_n {
+                let mut acc = 0.0;
+                for m in 1..k_n {
+                    if big_t >= start + m as u64 + j as u64 {
+                        let u = big_t - m as u64;
+                        acc += y_at(u - j as u64) * y_at(u);
+                    }
+                    // The first trajectory's sums are written, not added, so that one
+                    // trajectory gives the very bits it always did.
+                    if n_tr == 0 { e[j * k_n + m] = acc } else { e[j * k_n + m] += acc }
                 }
-                e[j * k_n + m] = acc;
             }
         }
         let mut amat = vec![0.0; k_n * k_n];
@@ -127,10 +132,18 @@ impl Deconvolver {
             // Reweighted passes (quasi-likelihood): each step weighted by the inverse of
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
             // R̂ does not change between the passes: its predictions are found once.
-            let preds: Vec<Predictions> = systems.iter().map(|(di, r, _)| ds[*di].predictions(r)).collect();
+            // One set of predictions per deconvolver and trajectory.
+            let preds: Vec<(usize, &Trail, Predictions)> = systems
+                .iter()
+                .flat_map(|(di, r, _)| {
+                    let d = &ds[*di];
+                    d.stats.trails().iter().map(move |tr| (*di, tr, Predictions::of(tr, r, k_n)))
+                })
+                .collect();
+            let rmax_of = |di: usize| systems.iter().find(|s| s.0 == di).map_or(0.0, |s| s.2);
             for _ in 0..passes {
-                let sum = systems.iter().zip(&preds).fold(None, |sum, ((di, _, rm), pred)| {
-                    add_system(sum, ds[*di].weighted_stats(pred, &p, *rm))
+                let sum = preds.iter().fold(None, |sum, (di, tr, pred)| {
+                    add_system(sum, weighted_stats(tr, pred, &p, rmax_of(*di)))
                 });
                 let Some((mut aw, cw)) = sum else { break };
                 let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
@@ -158,13 +171,111 @@ impl Deconvolver {
         }
         true
     }
+}
 
-    /// The non-zero predictions y_t = R̂(x_t) over the stored history, and the steps whose
-    /// last K + 1 hold one.
-    fn predictions(&self, r: &[f64]) -> Predictions {
-        let k_n = self.cfg.settings.max_delay + 1;
+/// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over a trajectory's stored history (`tr`),
+/// ỹ_t(k) = y_{t−k}, w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀), from the non-zero predictions
+/// `pred`: a step whose last K + 1 predictions are all zero adds nothing and is skipped.
+///
+/// The sums are walked along diagonals: two predictions y_u, y_{u'} (u ≤ u' ≤ u + K)
+/// meet in the windows t = u'..=u + K, where they add w_t y_u y_{u'} to
+/// A(t − u, t − u'), an entry of the lower triangle one row and one column further on
+/// at each t. Taking the pairs in the order of u, each entry receives its terms in the
+/// order of t, so the lower triangle is bit for bit that of a pass over every step;
+/// the upper triangle is its mirror, so A is exactly symmetric.
+fn weighted_stats(tr: &Trail, pred: &Predictions, p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
+    let k_n = p.len();
+    let (var, v0) = delivery_variance(p, rmax);
+    let (steps, ys) = (&pred.steps, &pred.y);
+    // The weight w_t of each window, in window order.
+    let w: Vec<f64> = pred
+        .windows
+        .iter()
+        .map(|&(t, lo, hi)| {
+            let (lo, hi) = (lo as usize, hi as usize);
+            let v = steps[lo..hi]
+                .iter()
+                .zip(&ys[lo..hi])
+                .fold(v0, |v, (&u, &yu)| v + var[(t - u) as usize] * yu * yu);
+            1.0 / v
+        })
+        .collect();
+    // The lower triangle by diagonals: `diags[k1 * k_n + s]` = A(k1 + s, s), so that
+    // the terms of one pair of predictions fall on contiguous entries.
+    let mut diags = vec![0.0; k_n * k_n];
+    let mut c = vec![0.0; k_n];
+    let mut wy1 = vec![0.0; k_n];
+    let len = tr.hist_r.len();
+    // The windows from t = u on are consecutive for K + 1 steps (u is in each of
+    // them), so window first[j] + s is step steps[j] + s.
+    let first = &pred.first;
+    for (j1, (&u1, &y1)) in steps.iter().zip(ys).enumerate() {
+        let u1 = u1 as usize;
+        let span = (u1 + k_n).min(len) - u1; // The windows holding u1.
+        let w1 = &w[first[j1]..first[j1] + span];
+        // c: the deliveries r_t of the windows holding u1, at lags 0..span. The terms
+        // of rt = 0 are ±0 (w and y finite) and c never holds −0, so adding them
+        // changes nothing: they are added rather than branched around.
+        for ((ck, &wt), &rt) in c.iter_mut().zip(w1).zip(&tr.hist_r[u1..u1 + span]) {
+            *ck += wt * rt * y1;
+        }
+        // w_t y1 of each window holding u1 (a term w_t y1 y2 is (w_t y1) y2).
+        let wy1 = &mut wy1[..span];
+        wy1.iter_mut().zip(w1).for_each(|(x, &wt)| *x = wt * y1);
+        // A's lower triangle: u1 against itself and every later prediction u2 within
+        // K steps, in the windows t = u2..u1 + K (lags t − u1 ≥ t − u2).
+        for (&u2, &y2) in steps[j1..].iter().zip(&ys[j1..]) {
+            let u2 = u2 as usize;
+            if u2 >= u1 + span {
+                break;
+            }
+            let k1 = u2 - u1;
+            let diag = &mut diags[k1 * k_n..k1 * k_n + span - k1];
+            for (x, &wy) in diag.iter_mut().zip(&wy1[k1..]) {
+                *x += wy * y2;
+            }
+        }
+    }
+    // A from its diagonals; the upper triangle is the lower one's mirror (the same sums).
+    let mut a = vec![0.0; k_n * k_n];
+    for k1 in 0..k_n {
+        for s in 0..k_n - k1 {
+            let x = diags[k1 * k_n + s];
+            a[(k1 + s) * k_n + s] = x;
+            a[s * k_n + k1 + s] = x;
+        }
+    }
+    (a, c)
+}
+
+/// The variance model of a delivery under p (K + 1 = p.len() lags): its factor
+/// p(k)(1 − p(k)) + δ for each lag, δ = 1/(4(K + 1)), and the floor v₀ = 0.01 r²_max, so
+/// that a delivery of predictions y has the variance Σ_k factor(k) y²_{t−k} + v₀.
+fn delivery_variance(p: &[f64], rmax: f64) -> (Vec<f64>, f64) {
+    let delta = 0.25 / p.len() as f64;
+    (p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect(), 0.01 * rmax * rmax)
+}
+
+/// The steps of the stored history whose prediction y_t = R̂(x_t) is not zero, in step
+/// order, and those predictions.
+#[derive(Debug, Default)]
+struct Predictions {
+    steps: Vec<u32>,
+    y: Vec<f64>,
+    /// Each step t whose last K + 1 hold a prediction, in order, with those predictions'
+    /// range lo..hi in `steps` and `y`: (t, lo, hi).
+    windows: Vec<(u32, u32, u32)>,
+    /// The index in `windows` of each prediction's own step (every prediction's step is a
+    /// window, as it holds that prediction).
+    first: Vec<usize>,
+}
+
+impl Predictions {
+    /// The non-zero predictions y_t = R̂(x_t) over a trajectory's stored history, and the
+    /// steps whose last K + 1 (`k_n` = K + 1) hold one.
+    fn of(tr: &Trail, r: &[f64], k_n: usize) -> Self {
         let mut pred = Predictions::default();
-        for (t, &i) in self.hist_x.iter().enumerate() {
+        for (t, &i) in tr.hist_x.iter().enumerate() {
             let y = r[i as usize];
             if y != 0.0 {
                 pred.steps.push(t as u32);
@@ -174,7 +285,7 @@ impl Deconvolver {
         // The predictions of the last K + 1 steps of t are steps[lo..hi] (oldest first).
         let steps = &pred.steps;
         let (mut lo, mut hi, mut t) = (0, 0, 0);
-        while t < self.hist_r.len() {
+        while t < tr.hist_r.len() {
             while hi < steps.len() && steps[hi] as usize <= t {
                 // Steps come in order and none is skipped, so this one is t: its window
                 // is the one pushed below.
@@ -198,103 +309,6 @@ impl Deconvolver {
         }
         pred
     }
-
-    /// Σ_t w_t ỹ_t ỹ_tᵀ and Σ_t w_t r_t ỹ_t over the stored history, ỹ_t(k) = y_{t−k},
-    /// w_t = 1 / (Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k} + v₀), from the non-zero predictions
-    /// `pred`: a step whose last K + 1 predictions are all zero adds nothing and is skipped.
-    ///
-    /// The sums are walked along diagonals: two predictions y_u, y_{u'} (u ≤ u' ≤ u + K)
-    /// meet in the windows t = u'..=u + K, where they add w_t y_u y_{u'} to
-    /// A(t − u, t − u'), an entry of the lower triangle one row and one column further on
-    /// at each t. Taking the pairs in the order of u, each entry receives its terms in the
-    /// order of t, so the lower triangle is bit for bit that of a pass over every step;
-    /// the upper triangle is its mirror, so A is exactly symmetric.
-    fn weighted_stats(&self, pred: &Predictions, p: &[f64], rmax: f64) -> (Vec<f64>, Vec<f64>) {
-        let k_n = self.cfg.settings.max_delay + 1;
-        let (var, v0) = delivery_variance(p, rmax);
-        let (steps, ys) = (&pred.steps, &pred.y);
-        // The weight w_t of each window, in window order.
-        let w: Vec<f64> = pred
-            .windows
-            .iter()
-            .map(|&(t, lo, hi)| {
-                let (lo, hi) = (lo as usize, hi as usize);
-                let v = steps[lo..hi]
-                    .iter()
-                    .zip(&ys[lo..hi])
-                    .fold(v0, |v, (&u, &yu)| v + var[(t - u) as usize] * yu * yu);
-                1.0 / v
-            })
-            .collect();
-        // The lower triangle by diagonals: `diags[k1 * k_n + s]` = A(k1 + s, s), so that
-        // the terms of one pair of predictions fall on contiguous entries.
-        let mut diags = vec![0.0; k_n * k_n];
-        let mut c = vec![0.0; k_n];
-        let mut wy1 = vec![0.0; k_n];
-        let len = self.hist_r.len();
-        // The windows from t = u on are consecutive for K + 1 steps (u is in each of
-        // them), so window first[j] + s is step steps[j] + s.
-        let first = &pred.first;
-        for (j1, (&u1, &y1)) in steps.iter().zip(ys).enumerate() {
-            let u1 = u1 as usize;
-            let span = (u1 + k_n).min(len) - u1; // The windows holding u1.
-            let w1 = &w[first[j1]..first[j1] + span];
-            // c: the deliveries r_t of the windows holding u1, at lags 0..span. The terms
-            // of rt = 0 are ±0 (w and y finite) and c never holds −0, so adding them
-            // changes nothing: they are added rather than branched around.
-            for ((ck, &wt), &rt) in c.iter_mut().zip(w1).zip(&self.hist_r[u1..u1 + span]) {
-                *ck += wt * rt * y1;
-            }
-            // w_t y1 of each window holding u1 (a term w_t y1 y2 is (w_t y1) y2).
-            let wy1 = &mut wy1[..span];
-            wy1.iter_mut().zip(w1).for_each(|(x, &wt)| *x = wt * y1);
-            // A's lower triangle: u1 against itself and every later prediction u2 within
-            // K steps, in the windows t = u2..u1 + K (lags t − u1 ≥ t − u2).
-            for (&u2, &y2) in steps[j1..].iter().zip(&ys[j1..]) {
-                let u2 = u2 as usize;
-                if u2 >= u1 + span {
-                    break;
-                }
-                let k1 = u2 - u1;
-                let diag = &mut diags[k1 * k_n..k1 * k_n + span - k1];
-                for (x, &wy) in diag.iter_mut().zip(&wy1[k1..]) {
-                    *x += wy * y2;
-                }
-            }
-        }
-        // A from its diagonals; the upper triangle is the lower one's mirror (the same sums).
-        let mut a = vec![0.0; k_n * k_n];
-        for k1 in 0..k_n {
-            for s in 0..k_n - k1 {
-                let x = diags[k1 * k_n + s];
-                a[(k1 + s) * k_n + s] = x;
-                a[s * k_n + k1 + s] = x;
-            }
-        }
-        (a, c)
-    }
-}
-
-/// The variance model of a delivery under p (K + 1 = p.len() lags): its factor
-/// p(k)(1 − p(k)) + δ for each lag, δ = 1/(4(K + 1)), and the floor v₀ = 0.01 r²_max, so
-/// that a delivery of predictions y has the variance Σ_k factor(k) y²_{t−k} + v₀.
-fn delivery_variance(p: &[f64], rmax: f64) -> (Vec<f64>, f64) {
-    let delta = 0.25 / p.len() as f64;
-    (p.iter().map(|&pk| pk * (1.0 - pk) + delta).collect(), 0.01 * rmax * rmax)
-}
-
-/// The steps of the stored history whose prediction y_t = R̂(x_t) is not zero, in step
-/// order, and those predictions.
-#[derive(Debug, Default)]
-struct Predictions {
-    steps: Vec<u32>,
-    y: Vec<f64>,
-    /// Each step t whose last K + 1 hold a prediction, in order, with those predictions'
-    /// range lo..hi in `steps` and `y`: (t, lo, hi).
-    windows: Vec<(u32, u32, u32)>,
-    /// The index in `windows` of each prediction's own step (every prediction's step is a
-    /// window, as it holds that prediction).
-    first: Vec<usize>,
 }
 
 #[cfg(test)]
@@ -340,7 +354,8 @@ mod tests {
             // The steps of the last K + 1 with y ≠ 0, oldest first: (step, y).
             let mut window: std::collections::VecDeque<(usize, f64)> = std::collections::VecDeque::new();
             let mut live: Vec<(usize, f64)> = Vec::with_capacity(k_n);
-            for (t, (&i, &rt)) in self.hist_x.iter().zip(self.hist_r.iter()).enumerate() {
+            let tr = self.stats.trail();
+            for (t, (&i, &rt)) in tr.hist_x.iter().zip(tr.hist_r.iter()).enumerate() {
                 let y = r[i as usize];
                 if y != 0.0 {
                     window.push_back((t, y));
@@ -398,11 +413,12 @@ mod tests {
         }
         let r_by_id = [0.0, 0.0, 1.5, -0.75, 10.0];
         let r: Vec<f64> = d.stats.pairs.iter().map(|&x| r_by_id[x as usize]).collect();
-        let pred = d.predictions(&r);
+        let tr = d.stats.trail();
+        let pred = Predictions::of(tr, &r, k + 1);
         assert!(pred.steps.len() > 100 && pred.steps.len() < 5000);
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for p in [vec![1.0 / 8.0; 8], vec![0.0, 0.1, 0.5, 0.2, 0.0, 0.1, 0.1, 0.0]] {
-            let (a, c) = d.weighted_stats(&pred, &p, 10.0);
+            let (a, c) = weighted_stats(tr, &pred, &p, 10.0);
             let (a_ref, c_ref) = d.weighted_stats_reference(&r, &p, 10.0);
             assert_eq!(bits(&c), bits(&c_ref));
             let n = k + 1;

@@ -2,6 +2,12 @@
 //! C_j(x, x') = #{t : x_{t−j} = x, x_t = x'} (sparse, [`super::counts`]) and the lagged
 //! reward sums B_k(x) = Σ_t r_t 1[x_{t−k} = x], from which the reward fit's Gram matrix
 //! and the pmf fit's least-squares system are built without the history.
+//!
+//! Several trajectories (the robots of a swarm sharing one learner) can feed one set of
+//! statistics: each has its own [`Trail`] (its last pairs, its step count and the start of
+//! its current run), so a lag only ever joins two steps of the same trajectory, and C_j
+//! and B_k are the sums of each trajectory's counts. The trajectory being fed is the
+//! active one ([`LagStats::set_trail`]); with one trajectory nothing changes.
 
 use super::counts::{CoCounts, Merged};
 use super::gram::{Edge, Gram};
@@ -9,8 +15,37 @@ use super::gram::{Edge, Gram};
 /// No pair yet.
 pub(crate) const UNSEEN: u32 = u32::MAX;
 
-/// C_j, B_k and the pairs of the last 2(K + 1) steps, over compact pair indices (in the
-/// order pairs were first taken).
+/// One trajectory's part of [`LagStats`]: the compact indices of its last 2(K + 1) steps,
+/// its steps, the first step of its current run, and (when the pmf fit is reweighted) the
+/// compact pair and delivery of every step of that run.
+#[derive(Clone, Debug)]
+pub(crate) struct Trail {
+    /// Compact indices of the last 2(K + 1) steps, by t mod 2(K + 1).
+    recent: Vec<u32>,
+    /// Steps of this trajectory.
+    pub(crate) t: u64,
+    /// First step of the current run (after `reset_history`).
+    pub(crate) start: u64,
+    /// Compact pair index and delivered reward of every step of the current run (at most
+    /// [`super::HISTORY_MAX`], the oldest half dropped when full), when kept.
+    pub(crate) hist_x: Vec<u32>,
+    pub(crate) hist_r: Vec<f64>,
+}
+
+impl Trail {
+    fn new(k_n: usize) -> Self {
+        Self { recent: vec![UNSEEN; 2 * k_n], t: 0, start: 0, hist_x: Vec::new(), hist_r: Vec::new() }
+    }
+
+    /// Compact index of the pair taken at step `u` (one of the last 2(K + 1)).
+    #[inline]
+    pub(crate) fn past(&self, u: u64) -> usize {
+        self.recent[(u % self.recent.len() as u64) as usize] as usize
+    }
+}
+
+/// C_j, B_k and each trajectory's last pairs, over compact pair indices (in the order
+/// pairs were first taken).
 #[derive(Clone, Debug)]
 pub(crate) struct LagStats {
     /// K + 1.
@@ -24,14 +59,13 @@ pub(crate) struct LagStats {
     counts: Option<CoCounts>,
     /// B_k(i) at i·(K + 1) + k.
     b: Vec<f64>,
-    /// Compact indices of the last 2(K + 1) steps, by t mod 2(K + 1).
-    recent: Vec<u32>,
+    /// Each trajectory's last pairs (at least one), and the one being fed.
+    trails: Vec<Trail>,
+    active: usize,
     /// Σ_t r_t².
     pub(crate) sum_r2: f64,
-    /// Steps observed.
+    /// Steps observed, over every trajectory.
     pub(crate) t: u64,
-    /// First step of the current run (after `reset_history`).
-    pub(crate) start: u64,
 }
 
 impl LagStats {
@@ -45,11 +79,47 @@ impl LagStats {
             pairs: Vec::new(),
             counts: counts.then(CoCounts::default),
             b: Vec::new(),
-            recent: vec![UNSEEN; 2 * k_n],
+            trails: vec![Trail::new(k_n)],
+            active: 0,
             sum_r2: 0.0,
             t: 0,
-            start: 0,
         }
+    }
+
+    /// The trajectory being fed.
+    pub(crate) fn trail(&self) -> &Trail {
+        &self.trails[self.active]
+    }
+
+    /// Every trajectory's part, in the order they were first fed.
+    pub(crate) fn trails(&self) -> &[Trail] {
+        &self.trails
+    }
+
+    /// The index of the trajectory being fed.
+    pub(crate) fn active(&self) -> usize {
+        self.active
+    }
+
+    /// Feeds trajectory `i` from now on (trajectories are numbered from 0 in the order
+    /// they start; those up to `i` not seen yet start empty).
+    pub(crate) fn set_trail(&mut self, i: usize) {
+        while self.trails.len() <= i {
+            self.trails.push(Trail::new(self.k_n));
+        }
+        self.active = i;
+    }
+
+    /// Appends pair `i` and delivery `reward` to the current run's history (the
+    /// reweighted pmf fit's), dropping the oldest half when it holds `max` steps.
+    pub(crate) fn push_history(&mut self, i: usize, reward: f64, max: usize) {
+        let tr = &mut self.trails[self.active];
+        if tr.hist_x.len() == max {
+            tr.hist_x.drain(..max / 2);
+            tr.hist_r.drain(..max / 2);
+        }
+        tr.hist_x.push(i as u32);
+        tr.hist_r.push(reward);
     }
 
     /// Bytes of the statistics for `pairs` pairs and largest delay `max_delay`, without
@@ -91,35 +161,34 @@ impl LagStats {
     pub(crate) fn record(&mut self, x: usize, reward: f64) -> usize {
         let i = self.compact(x);
         let k_n = self.k_n;
-        self.recent[(self.t % (2 * k_n) as u64) as usize] = i as u32;
+        let tr = &mut self.trails[self.active];
+        tr.recent[(tr.t % (2 * k_n) as u64) as usize] = i as u32;
         self.sum_r2 += reward * reward;
-        let kmax = (k_n as u64 - 1).min(self.t - self.start) as usize;
+        let kmax = (k_n as u64 - 1).min(tr.t - tr.start) as usize;
         if let Some(counts) = self.counts.as_mut() {
             for k in 0..=kmax {
-                let e = self.recent[((self.t - k as u64) % (2 * k_n) as u64) as usize] as usize;
+                let e = tr.recent[((tr.t - k as u64) % (2 * k_n) as u64) as usize] as usize;
                 counts.add(e, i, k);
             }
         }
         // Adding a zero delivery would change no sum.
         if reward != 0.0 {
             for k in 0..=kmax {
-                let e = self.past(self.t - k as u64);
+                let e = tr.past(tr.t - k as u64);
                 self.b[e * k_n + k] += reward;
             }
         }
+        tr.t += 1;
         self.t += 1;
         i
     }
 
-    /// Compact index of the pair taken at step `u` (one of the last 2(K + 1)).
-    #[inline]
-    pub(crate) fn past(&self, u: u64) -> usize {
-        self.recent[(u % self.recent.len() as u64) as usize] as usize
-    }
-
-    /// Forgets the last K steps (a new run starts).
+    /// Forgets the fed trajectory's last K steps and its history (a new run starts).
     pub(crate) fn reset_history(&mut self) {
-        self.start = self.t;
+        let tr = &mut self.trails[self.active];
+        tr.start = tr.t;
+        tr.hist_x.clear();
+        tr.hist_r.clear();
     }
 
     /// Merges the pending co-occurrences (before [`Self::gram`] and
@@ -154,21 +223,24 @@ impl LagStats {
     }
 
     /// Edge terms, in the order they are subtracted: a pair (u − j, u) with u among the
-    /// last K steps has fewer than K + 1 windows after it; C_j counted it with the full
-    /// weight a_j.
+    /// last K steps of a trajectory's current run has fewer than K + 1 windows after it;
+    /// C_j counted it with the full weight a_j. (A finished run's last pairs keep their
+    /// full windows: their rewards still arrive.)
     pub(crate) fn edges(&self, p: &[f64]) -> Vec<Edge> {
         let k_n = self.k_n;
-        let big_t = self.t;
         let mut out = Vec::new();
-        for u in self.start.max(big_t.saturating_sub(k_n as u64 - 1))..big_t {
-            let left = (big_t - 1 - u) as usize; // windows end at t = u..=T−1, k' ≤ left
-            for j in 0..=((k_n - 1).min((u - self.start) as usize)) {
-                let deficit: f64 = (left + 1..k_n - j).map(|k2| p[k2 + j] * p[k2]).sum();
-                if deficit == 0.0 {
-                    continue;
+        for tr in &self.trails {
+            let big_t = tr.t;
+            for u in tr.start.max(big_t.saturating_sub(k_n as u64 - 1))..big_t {
+                let left = (big_t - 1 - u) as usize; // windows end at t = u..=T−1, k' ≤ left
+                for j in 0..=((k_n - 1).min((u - tr.start) as usize)) {
+                    let deficit: f64 = (left + 1..k_n - j).map(|k2| p[k2 + j] * p[k2]).sum();
+                    if deficit == 0.0 {
+                        continue;
+                    }
+                    let (v, w) = (tr.past(u - j as u64) as u32, tr.past(u) as u32);
+                    out.push(Edge { v, w, lagged: j > 0, deficit });
                 }
-                let (v, w) = (self.past(u - j as u64) as u32, self.past(u) as u32);
-                out.push(Edge { v, w, lagged: j > 0, deficit });
             }
         }
         out

@@ -76,12 +76,15 @@ use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
 use crate::diagnostics::Diagnostics;
 use crate::learner::{Decision, Experience, Learner, Table, max_of};
+use crate::memory::Memory;
 use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
 mod settings;
+mod trajectory;
 
 pub use settings::{DeconvModelSettings, ExploreSettings};
+pub(crate) use trajectory::Trajectory;
 
 /// Model-based learner on counted transitions and deconvolved rewards.
 #[derive(Clone, Debug)]
@@ -553,6 +556,15 @@ impl Learner for DeconvModel {
         if let Some(c) = self.confidence.as_mut() {
             c.recent.clear();
         }
+    }
+
+    /// Every robot's deliveries are explained by its own past pairs (module `trajectory`).
+    fn shares_tables(&self) -> bool {
+        true
+    }
+
+    fn swap_memory(&mut self, other: &mut Memory) {
+        self.swap_trajectory(other);
     }
 }
 
