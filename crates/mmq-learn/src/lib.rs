@@ -24,7 +24,7 @@
 //! Selection: [`kind`] (which learner), [`settings`] (each learner's own settings, tagged
 //! by kind, each struct defined beside its learner) and [`spec`] (settings and parameters,
 //! validated, built). This file only declares modules and re-exports; no module imports
-//! another in a circle (the workspace's `tests/import_cycles.rs`).
+//! another in a circle (the workspace's `tests/it/import_cycles.rs`).
 
 pub mod decode;
 pub mod deconv;

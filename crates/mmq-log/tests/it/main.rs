@@ -3,6 +3,7 @@
 mod common;
 mod compare;
 mod estimates;
+mod fuzz_props;
 mod honest;
 mod live;
 mod render;

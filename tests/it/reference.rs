@@ -2,8 +2,7 @@
 //! (`reference = true`): the fraction of what the environment allows, next to the
 //! fraction of the grid's optimum.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 #[test]
 fn a_run_with_the_reference_reports_its_fraction_beside_the_optimums() {

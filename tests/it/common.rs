@@ -1,6 +1,5 @@
-//! Helpers shared by the end-to-end test binaries (`tests/cli.rs`, `tests/robustness.rs`,
-//! `tests/sweep.rs`): the repository root, running the `mmq` binary, its output as text.
-#![allow(dead_code)] // each test binary uses its own subset
+//! Helpers shared by the end-to-end tests: the repository root, running the `mmq` binary,
+//! its output as text.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

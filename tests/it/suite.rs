@@ -7,8 +7,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// Two grid tasks and a robot task, a few hundred steps each.
 const TINY: &str = r#"suite = "v1"

@@ -5,8 +5,7 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-mod common;
-use common::root;
+use crate::common::root;
 
 /// The layering: each crate's allowed `mmq-*` dependencies (ARCHITECTURE.md, "Layering").
 const LAYERS: &[(&str, &[&str])] = &[

@@ -5,15 +5,13 @@
 //! a closed stdout (`| head`) ends the output quietly; `--live-wait` gives up after its
 //! timeout.
 
-mod common;
-
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::sync::mpsc;
 use std::time::Duration;
 
-use common::{mmq, root, text};
+use crate::common::{mmq, root, text};
 
 /// Asserts exit 3 with one line naming `path` and no panic.
 fn refused(args: &[&str], path: &Path, says: &str) {

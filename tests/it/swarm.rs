@@ -3,8 +3,7 @@
 //! do not depend on the thread count, and a recorded swarm (served live or not) writes
 //! its MCAP file without changing its results.
 
-mod common;
-use common::*;
+use crate::common::*;
 
 use std::path::Path;
 

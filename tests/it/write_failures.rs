@@ -11,8 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-mod common;
-use common::*;
+use crate::common::*;
 
 /// Runs `mmq ARGS` under `sh` with a file-size limit of `kib` KiB and SIGXFSZ ignored.
 fn mmq_with_size_limit(kib: u64, args: &[&str]) -> Output {

@@ -84,7 +84,7 @@ fn recorded_grid(dir: &std::path::Path, steps: u64) -> (PathBuf, mmq_log::LogCon
 }
 
 /// A recording reads back as one; a file that is not MCAP is bad input naming the file
-/// (an MCAP file of another program: `tests/cli.rs`).
+/// (an MCAP file of another program: `tests/it/cli.rs`).
 #[test]
 fn recordings_read_back_and_other_files_are_bad_input() {
     let dir = tempfile::tempdir().unwrap();

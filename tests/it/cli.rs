@@ -1,7 +1,6 @@
 //! End-to-end tests of the `mmq` binary, one module per topic (ripgrep's layout).
 
-mod common;
-use common::*;
+use crate::common::*;
 
 mod bad_input {
     use super::*;
