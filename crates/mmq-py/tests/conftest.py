@@ -1,5 +1,5 @@
-"""Shared helpers: the repository root and the `mmq` CLI binary (built by
-`cargo build --release`; `MMQ_BIN` overrides)."""
+"""Shared helpers: the repository root and the `mmq` CLI binary (`MMQ_BIN`, else the
+release build, else the debug build that `cargo test` leaves)."""
 
 import os
 import subprocess
