@@ -209,12 +209,14 @@ impl<'a, E: Env + Telemetry> Stepper<'a, E> {
     pub fn advance(&mut self, d: Decision, learner: &mut dyn Learner) -> Result<(), LabError> {
         let (t, s) = (self.t, self.s);
         let seed = self.seed;
+        let true_state = if self.needs_truth { self.ch.env().true_state() } else { None };
         let st = self.ch.step(d.action).map_err(|source| LabError::Env { seed, source })?;
         let truth = &mut self.truth;
         if self.needs_truth {
             truth.emitted_now = st.delay.map(|_| st.step.reward);
             truth.delivered.clear();
             truth.delivered.extend(self.ch.delivered_emissions());
+            (truth.true_state, truth.true_next_state) = (true_state, self.ch.env().true_state());
         }
         learner.observe(&Experience {
             t,

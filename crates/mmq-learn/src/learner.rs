@@ -18,13 +18,18 @@ pub struct Decision {
     pub explored: bool,
 }
 
-/// Ground truth the channel knows; only the oracle learner may read it.
+/// Ground truth the channel and the environment know; only diagnostics read it (the
+/// oracle learner, and `deconv-model` told the true cells).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Truth {
     /// The reward emitted at this step, if it was non-zero (it is in flight now).
     pub emitted_now: Option<f64>,
     /// Emissions delivered at this step: (emission step, value).
     pub delivered: Vec<(u64, f64)>,
+    /// The true cell at the step's start and at its end, where the state is a belief
+    /// that can be wrong (the robot's; None elsewhere).
+    pub true_state: Option<State>,
+    pub true_next_state: Option<State>,
 }
 
 /// One step as the learner sees it.

@@ -134,19 +134,19 @@ mod tests {
         let p = Params { alpha: 0.5, gamma: 0.5, epsilon: 0.0, q0: 0.0 };
         let mut l = Oracle::new(p, 4, 2);
         // t = 0: (0, 1) → 1 emits +10, nothing delivered: no update yet.
-        let t0 = Truth { emitted_now: Some(10.0), delivered: vec![] };
+        let t0 = Truth { emitted_now: Some(10.0), delivered: vec![], ..Truth::default() };
         l.observe(&exp(0, 0, 1, 1, 0.0, &t0));
         assert!(l.q.iter().all(|&x| x == 0.0));
         assert_eq!(l.in_flight(), 1);
         // t = 1: (1, 0) → 2 emits −1; nothing delivered.
-        let t1 = Truth { emitted_now: Some(-1.0), delivered: vec![] };
+        let t1 = Truth { emitted_now: Some(-1.0), delivered: vec![], ..Truth::default() };
         l.observe(&exp(1, 1, 0, 2, 0.0, &t1));
         // t = 2: (2, 1) → 3 emits nothing: learned at once with r = 0:
         //   Q(2,1) ← 0 + 0.5 (0 + 0.5·max Q(3,·)=0 − 0) = 0.
         // Delivered 9 = (t=1, −1) + (t=0, +10), listed in that order:
         //   Q(1,0) ← 0 + 0.5 (−1 + 0.5·max Q(2,·)=0 − 0) = −0.5
         //   Q(0,1) ← 0 + 0.5 (10 + 0.5·max Q(1,·)=0 − 0) = 5      (max Q(1,·) = max(−0.5, 0) = 0)
-        let t2 = Truth { emitted_now: None, delivered: vec![(1, -1.0), (0, 10.0)] };
+        let t2 = Truth { emitted_now: None, delivered: vec![(1, -1.0), (0, 10.0)], ..Truth::default() };
         l.observe(&exp(2, 2, 1, 3, 9.0, &t2));
         assert_eq!((l.q(1, 0), l.q(0, 1), l.q(2, 1)), (-0.5, 5.0, 0.0));
         assert_eq!(l.in_flight(), 0);
@@ -155,7 +155,7 @@ mod tests {
         assert_eq!(l.q(3, 0), 1.25);
         // t = 4: a zero-delay emission: (0, 1) → 1 emits +10 and receives it at once:
         //   Q(0,1) ← 5 + 0.5 (10 + 0.5·max Q(1,·)=0 − 5) = 7.5.
-        let t4 = Truth { emitted_now: Some(10.0), delivered: vec![(4, 10.0)] };
+        let t4 = Truth { emitted_now: Some(10.0), delivered: vec![(4, 10.0)], ..Truth::default() };
         l.observe(&exp(4, 0, 1, 1, 10.0, &t4));
         assert_eq!(l.q(0, 1), 7.5);
         assert_eq!(l.diagnostics().figure("learner/credited"), Some(3.0));

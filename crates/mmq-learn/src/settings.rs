@@ -197,6 +197,7 @@ impl LearnerSettings {
                     m,
                 );
                 let l = if s.plan_exploration { l.planning_exploration() } else { l };
+                let l = l.telling(s.told_cells);
                 let z = s.optimism_confidence;
                 Box::new(if z > 0.0 { l.with_confidence(z) } else { l })
             }

@@ -80,10 +80,14 @@ use crate::memory::Memory;
 use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
+mod confidence;
 mod settings;
+mod told_cells;
 mod trajectory;
 
+use confidence::Confidence;
 pub use settings::{DeconvModelSettings, ExploreSettings};
+pub use told_cells::ToldCells;
 pub(crate) use trajectory::Trajectory;
 
 /// Model-based learner on counted transitions and deconvolved rewards.
@@ -112,6 +116,8 @@ pub struct DeconvModel {
     /// The states whose values the next sweep must recompute, and the deconvolver's
     /// refits when R̂ was last planned with ([`Dirty`]).
     dirty: Dirty,
+    /// A diagnostic's true cells ([`ToldCells`]; none for an agent).
+    told: ToldCells,
 }
 
 /// Which states a sweep of (M1) must recompute: the others would get their values
@@ -168,91 +174,6 @@ impl Dirty {
         let b = word.trailing_zeros() as usize;
         self.bits[w] &= !(1 << b);
         Some(w * 64 + b)
-    }
-}
-
-/// The state of the confidence rule (M2).
-#[derive(Clone, Debug)]
-struct Confidence {
-    /// z.
-    z: f64,
-    /// κ √(2 ln m): the reward fit's significance threshold, in standard errors.
-    detect: f64,
-    /// c(j) = Σ_{k ≤ j} p̂(k)², j = 0..=K (c(K) = Σ p̂²).
-    cum: Vec<f64>,
-    /// I* = (κ √(2 ln m) + z)² σ̂² / v_max².
-    needed: f64,
-    /// The deconvolver's refits when `cum` and `needed` were computed (None: never).
-    refits: Option<u64>,
-    /// The pairs of the last K steps, the latest last.
-    recent: std::collections::VecDeque<u32>,
-    /// Scratch: c(K) − I(x) of the pairs in `recent` (0 elsewhere).
-    deficit: Vec<f64>,
-    /// Pairs known once: they stay known.
-    latched: Vec<bool>,
-}
-
-impl Confidence {
-    fn new(z: f64, detect: f64, pairs: usize) -> Self {
-        Self {
-            z,
-            detect,
-            cum: Vec::new(),
-            needed: 0.0,
-            refits: None,
-            recent: std::collections::VecDeque::new(),
-            deficit: vec![0.0; pairs],
-            latched: vec![false; pairs],
-        }
-    }
-
-    /// Recomputes c(j) and I* from the deconvolver's last fit.
-    fn update(&mut self, d: &ValueDeconvolver) {
-        let mut acc = 0.0;
-        self.cum = d
-            .pmf()
-            .iter()
-            .map(|p| {
-                acc += p * p;
-                acc
-            })
-            .collect();
-        let t = self.detect + self.z;
-        self.needed = t * t * d.noise_to_scale();
-        self.refits = Some(d.refits());
-    }
-
-    /// Σ p̂(k)².
-    fn a0(&self) -> f64 {
-        self.cum.last().copied().unwrap_or(0.0)
-    }
-
-    /// Fills `deficit` with Σ over the recent visits of x of c(K) − c(lag): the part of
-    /// their information still in flight.
-    fn fill_deficits(&mut self) {
-        let (a0, len) = (self.a0(), self.recent.len());
-        for (j, &x) in self.recent.iter().enumerate() {
-            let lag = len - 1 - j;
-            self.deficit[x as usize] += a0 - self.cum[lag.min(self.cum.len() - 1)];
-        }
-    }
-
-    fn clear_deficits(&mut self) {
-        for &x in &self.recent {
-            self.deficit[x as usize] = 0.0;
-        }
-    }
-
-    /// Whether pair `x`, tried `n` times with the fitted reward `r`, is known by (M2), with
-    /// `deficit` filled; latches it when it is.
-    fn known(&mut self, x: usize, n: u32, r: f64) -> bool {
-        if !self.latched[x]
-            && n >= 1
-            && (r != 0.0 || self.a0() * f64::from(n) - self.deficit[x] >= self.needed)
-        {
-            self.latched[x] = true;
-        }
-        self.latched[x]
     }
 }
 
@@ -326,6 +247,7 @@ impl DeconvModel {
             confidence: None,
             plan_exploration: false,
             dirty: Dirty::new(num_states),
+            told: ToldCells::None,
         }
     }
 
@@ -501,31 +423,39 @@ impl Learner for DeconvModel {
     }
 
     fn observe(&mut self, e: &Experience<'_>) {
-        let i = self.q.index(e.state, e.action);
-        self.deconv.observe_transition(i, e.next_state, e.reward);
+        // The cells a real agent has, unless a diagnostic is told the true ones.
+        let cells = self.told.cells(e);
+        let ((s_c, s2_c), (s, s2)) = (cells.credit, cells.count);
+        let x = self.q.index(s_c, e.action);
+        self.deconv.observe_transition(x, s2_c, e.reward);
+        let i = self.q.index(s, e.action);
         self.tries[i] += 1;
-        self.dirty.mark(e.state);
+        self.dirty.mark(s);
         if self.tries[i] == 1 && self.confidence.is_some() {
             self.dirty.pending.push(i as u32);
         }
         if let Some(c) = self.confidence.as_mut() {
-            c.recent.push_back(i as u32);
+            c.recent.push_back(x as u32);
             if c.recent.len() > c.cum.len().max(1) {
                 c.recent.pop_front();
             }
         }
-        let s2 = e.next_state as u32;
+        let s2 = s2 as u32;
         match self.next[i].iter_mut().find(|x| x.0 == s2) {
             Some(x) => x.1 += 1,
             None => {
                 self.next[i].push((s2, 1));
                 let preds = &mut self.dirty.preds[s2 as usize];
-                if !preds.contains(&(e.state as u32)) {
-                    preds.push(e.state as u32);
+                if !preds.contains(&(s as u32)) {
+                    preds.push(s as u32);
                 }
             }
         }
         self.plan();
+    }
+
+    fn needs_truth(&self) -> bool {
+        self.told.needs_truth()
     }
 
     q_table_methods!(q);

@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{ProbeSteps, Probes};
+use super::{ProbeSteps, Probes, ToldCells};
 use crate::deconv::DeconvSettings;
 use crate::error::{LearnError, bad};
 
@@ -88,6 +88,10 @@ pub struct DeconvModelSettings {
     /// prefers paths where a random action costs little (the default); false:
     /// V(s) = max_a Q.
     pub plan_exploration: bool,
+    /// A diagnostic, not an agent: which part of the learning is told the robot's true
+    /// cell where the believed one can be wrong, `"none"` (the default), `"rewards"`,
+    /// `"transitions"` or `"both"` ([`super::ToldCells`]).
+    pub told_cells: ToldCells,
 }
 
 impl Default for DeconvModelSettings {
@@ -104,6 +108,7 @@ impl Default for DeconvModelSettings {
             explore: ExploreSettings { probe_steps: ProbeSteps::Any, ..off.explore },
             optimism_confidence: 2.0,
             plan_exploration: true,
+            told_cells: ToldCells::None,
         }
     }
 }
@@ -133,6 +138,7 @@ impl DeconvModelSettings {
             explore: ExploreSettings::default(),
             optimism_confidence: 0.0,
             plan_exploration: false,
+            told_cells: ToldCells::None,
         }
     }
 }
