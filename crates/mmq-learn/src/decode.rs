@@ -447,14 +447,18 @@ impl ValueDeconvolver {
     /// A new trajectory's number, for [`Self::set_stream`].
     pub fn new_stream(&mut self) -> usize {
         self.streams += 1;
+        if let Some(m) = self.surprise.as_mut() {
+            m.set_trajectories(self.streams as u64);
+        }
         self.streams - 1
     }
 
     /// Feeds trajectory `i` (0, or a number from [`Self::new_stream`]) from now on: its
     /// steps are lagged only against its own (parameter sharing: the robots of a swarm
     /// fit one R̂ and one p̂, each delivery explained by its own robot's past pairs). The
-    /// test (S) is one over every trajectory's residuals: each is zero-mean under the
-    /// model, whichever robot it came from.
+    /// test (S) is one over every trajectory's residuals (each is zero-mean under the
+    /// model, whichever robot it came from), made once every trajectory has had, on
+    /// average, the steps one trajectory's test waits for.
     pub fn set_stream(&mut self, i: usize) {
         debug_assert!(i < self.streams, "stream {i} of {}", self.streams);
         self.stream = i;

@@ -37,7 +37,10 @@ pub(crate) fn predicted(
 pub(crate) struct Surprise {
     /// z > 0.
     z: f64,
-    /// The fewest steps since the last refit before a test, max(K + 1, `refit_every`).
+    /// The fewest steps of one trajectory since the last refit before a test,
+    /// max(K + 1, `refit_every`), and of all of them: that times the trajectories feeding
+    /// the fit (parameter sharing; [`Self::set_trajectories`]).
+    min_steps_each: u64,
     min_steps: u64,
     /// S_n and n.
     sum: f64,
@@ -49,7 +52,13 @@ impl Surprise {
     /// steps have passed since the last refit (and K + 1).
     pub(crate) fn new(z: f64, max_delay: usize, refit_every: u64) -> Self {
         let min_steps = refit_every.max(max_delay as u64 + 1);
-        Self { z, min_steps, sum: 0.0, n: 0 }
+        Self { z, min_steps_each: min_steps, min_steps, sum: 0.0, n: 0 }
+    }
+
+    /// `n` trajectories feed the fit and take turns: a test waits for n times the steps,
+    /// as many of each trajectory's own steps as one trajectory's test waits for.
+    pub(crate) fn set_trajectories(&mut self, n: u64) {
+        self.min_steps = self.min_steps_each * n.max(1);
     }
 
     /// Adds the residual e = r − predicted of one step under residual variance `sigma2`
@@ -110,12 +119,17 @@ mod tests {
         }
     }
 
-    /// No test before `refit_every` steps since the last refit.
+    /// No test before `refit_every` steps since the last refit; with three trajectories
+    /// taking turns, before three times as many.
     #[test]
     fn no_test_before_refit_every_steps() {
         let mut s = Surprise::new(1.0, 1, 5);
         let calls: Vec<bool> = (0..6).map(|_| s.residual(-100.0, 1.0)).collect();
         assert_eq!(calls, [false, false, false, false, true, true]);
+        let mut s = Surprise::new(1.0, 1, 5);
+        s.set_trajectories(3);
+        let first = (0..20).position(|_| s.residual(-100.0, 1.0));
+        assert_eq!(first, Some(14));
     }
 
     /// The prediction sees only the pairs it is given (a new run's: the deconvolver's
