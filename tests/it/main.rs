@@ -1,7 +1,7 @@
 //! The workspace's end-to-end tests, one module per topic, in one test binary (one link
 //! of the whole lab instead of one per topic): the `mmq` binary's commands, its output
 //! folders and worlds, interruption and hostile inputs, the paper's report, sweeps, the
-//! suite, the swarm, and the code's shape (layering, no prints in libraries, no module
+//! suite, the swarm, a diagnostic learner, and the code's shape (layering, no prints in libraries, no module
 //! cycles). `cargo test --test it MODULE::` runs one topic.
 
 mod architecture;
@@ -16,4 +16,5 @@ mod served;
 mod suite;
 mod swarm;
 mod sweep;
+mod told_cells;
 mod write_failures;

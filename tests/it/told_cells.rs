@@ -1,0 +1,29 @@
+//! `deconv-model`'s diagnostic `told_cells` end to end: on the grid, where the state is
+//! no belief, every choice is the agent bit for bit; on the realistic robot, told the
+//! true cells, it learns from other pairs than the agent.
+
+use crate::common::*;
+
+/// The metrics of `mmq run ARGS --set told_cells=TOLD`.
+fn metrics(told: &str, args: &[&str]) -> String {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().to_string_lossy().into_owned();
+    let set = format!("told_cells={told}");
+    let mut all =
+        vec!["run", "-q", "--learner", "deconv-model", "--seeds", "1", "--set", &set, "--out", &out];
+    all.extend_from_slice(args);
+    let o = mmq(&all);
+    assert!(o.status.success(), "{}", text(&o).1);
+    std::fs::read_to_string(d.path().join("metrics.csv")).unwrap()
+}
+
+#[test]
+fn told_cells_changes_nothing_on_the_grid_and_something_on_the_robot() {
+    let grid = ["--world", "paper-5x5", "--steps", "2000"];
+    let agent = metrics("none", &grid);
+    for told in ["rewards", "transitions", "both"] {
+        assert_eq!(metrics(told, &grid), agent, "{told} on the grid");
+    }
+    let robot = ["--env", "robot", "--robot", "profile=realistic", "--steps", "1500"];
+    assert_ne!(metrics("both", &robot), metrics("none", &robot));
+}
