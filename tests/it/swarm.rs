@@ -199,4 +199,8 @@ fn a_recorded_swarm_writes_its_mcap_file_and_learns_as_unrecorded() {
     assert!(log.topics["/tf"].count > 0 && log.topics["/swarm/bodies"].count == 1);
     let cfg = String::from_utf8_lossy(&log.attachment("config.toml").unwrap().data).into_owned();
     assert!(cfg.contains("env = \"swarm\""), "{cfg}");
+    // `mmq replay FILE` counts every robot's steps as decisions.
+    let f = d2.path().join("trajectory-seed0.mcap");
+    let o = mmq(&["replay", f.to_str().unwrap()]);
+    assert!(text(&o).0.contains("200 decisions recorded"), "{}", text(&o).0);
 }

@@ -74,7 +74,8 @@ pub fn summary(log: &LogContents) -> LogSummary {
         duration_s,
         steps,
         run_complete: end.and_then(|e| e.get("complete")).and_then(|v| v.parse().ok()),
-        decisions: log.decisions.len() as u64,
+        // A swarm's recording holds every robot's steps on their own topic.
+        decisions: (log.decisions.len() + log.swarm_steps.len()) as u64,
         emitted_count: log.emitted.len() as u64,
         emitted_sum: log.emitted.iter().map(|e| e.msg.value).sum(),
         delivered_count: log.delivered.len() as u64,
