@@ -130,8 +130,7 @@ pub struct ValueDeconvolver {
     /// started (with that trajectory).
     hist: Vec<Step>,
     runs: Vec<(usize, u32)>,
-    /// The trajectory being fed, and the trajectories so far ([`Self::set_stream`]).
-    stream: usize,
+    /// The trajectories so far ([`Self::new_stream`]; the one being fed is the parts').
     streams: usize,
     /// Each non-zero delivered value (as first seen) and the times it was seen, by key;
     /// and the non-zero deliveries.
@@ -175,7 +174,6 @@ impl ValueDeconvolver {
             r: vec![0.0; num_states * num_actions],
             hist: Vec::new(),
             runs: Vec::new(),
-            stream: 0,
             streams: 1,
             seen: HashMap::new(),
             nonzero: 0,
@@ -293,7 +291,12 @@ impl ValueDeconvolver {
         if !self.cfg.settings.decode_values {
             return self.parts[0].observe_transition(x, next_state, reward);
         }
-        self.hist.push(Step { x: x as u32, next: next_state as u32, stream: self.stream as u32, r: reward });
+        self.hist.push(Step {
+            x: x as u32,
+            next: next_state as u32,
+            stream: self.stream() as u32,
+            r: reward,
+        });
         if reward != 0.0 {
             self.seen.entry(key(reward)).or_insert((reward, 0)).1 += 1;
             self.nonzero += 1;
@@ -396,10 +399,10 @@ impl ValueDeconvolver {
                 d.record(s.x as usize, share);
             }
         }
+        let stream = self.stream();
         for d in &mut parts {
             d.inherit(&self.parts[0]);
-            d.set_stream(self.streams - 1);
-            d.set_stream(self.stream);
+            d.set_stream(stream);
         }
         self.parts = parts;
         self.refit();
@@ -435,13 +438,13 @@ impl ValueDeconvolver {
             m.restart();
         }
         if self.cfg.settings.decode_values {
-            self.runs.push((self.hist.len(), self.stream as u32));
+            self.runs.push((self.hist.len(), self.stream() as u32));
         }
     }
 
     /// The trajectory being fed (0 until [`Self::set_stream`]).
     pub fn stream(&self) -> usize {
-        self.stream
+        self.parts[0].stream()
     }
 
     /// A new trajectory's number, for [`Self::set_stream`].
@@ -461,8 +464,14 @@ impl ValueDeconvolver {
     /// average, the steps one trajectory's test waits for.
     pub fn set_stream(&mut self, i: usize) {
         debug_assert!(i < self.streams, "stream {i} of {}", self.streams);
-        self.stream = i;
         self.parts.iter_mut().for_each(|d| d.set_stream(i));
+    }
+
+    /// Feeds `stream`, or a new trajectory's stream when `None` (one that has not started):
+    /// what a learner's memory swap does.
+    pub fn enter(&mut self, stream: Option<usize>) {
+        let i = stream.unwrap_or_else(|| self.new_stream());
+        self.set_stream(i);
     }
 }
 

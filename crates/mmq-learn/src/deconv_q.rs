@@ -152,8 +152,7 @@ impl Learner for DeconvQ {
         let n = self.history.len();
         let mut mine = (Some(self.deconv.stream()), std::mem::take(&mut self.history), self.seen);
         other.swap_with(&mut mine, || (None, vec![(0, 0, 0); n], 0));
-        let stream = mine.0.unwrap_or_else(|| self.deconv.new_stream());
-        self.deconv.set_stream(stream);
+        self.deconv.enter(mine.0);
         (self.history, self.seen) = (mine.1, mine.2);
     }
 }

@@ -38,10 +38,10 @@ pub(crate) struct Surprise {
     /// z > 0.
     z: f64,
     /// The fewest steps of one trajectory since the last refit before a test,
-    /// max(K + 1, `refit_every`), and of all of them: that times the trajectories feeding
-    /// the fit (parameter sharing; [`Self::set_trajectories`]).
-    min_steps_each: u64,
+    /// max(K + 1, `refit_every`); the test waits for that times `trajectories`, those
+    /// feeding the fit (parameter sharing; [`Self::set_trajectories`]).
     min_steps: u64,
+    trajectories: u64,
     /// S_n and n.
     sum: f64,
     n: u64,
@@ -52,13 +52,13 @@ impl Surprise {
     /// steps have passed since the last refit (and K + 1).
     pub(crate) fn new(z: f64, max_delay: usize, refit_every: u64) -> Self {
         let min_steps = refit_every.max(max_delay as u64 + 1);
-        Self { z, min_steps_each: min_steps, min_steps, sum: 0.0, n: 0 }
+        Self { z, min_steps, trajectories: 1, sum: 0.0, n: 0 }
     }
 
     /// `n` trajectories feed the fit and take turns: a test waits for n times the steps,
     /// as many of each trajectory's own steps as one trajectory's test waits for.
     pub(crate) fn set_trajectories(&mut self, n: u64) {
-        self.min_steps = self.min_steps_each * n.max(1);
+        self.trajectories = n.max(1);
     }
 
     /// Adds the residual e = r − predicted of one step under residual variance `sigma2`
@@ -66,7 +66,8 @@ impl Surprise {
     pub(crate) fn residual(&mut self, e: f64, sigma2: f64) -> bool {
         self.sum += e;
         self.n += 1;
-        self.n >= self.min_steps && self.sum < -self.z * (sigma2.max(0.0) * self.n as f64).sqrt()
+        self.n >= self.min_steps * self.trajectories
+            && self.sum < -self.z * (sigma2.max(0.0) * self.n as f64).sqrt()
     }
 
     /// A refit happened, or a new run started: the test starts again.

@@ -263,6 +263,11 @@ impl Deconvolver {
         (0..n).map(move |k| st.pairs[tr.past(tr.t - 1 - k)] as usize)
     }
 
+    /// The trajectory being fed.
+    pub(crate) fn stream(&self) -> usize {
+        self.stats.active()
+    }
+
     /// Feeds trajectory `i` from now on: its steps are lagged only against its own, so
     /// several trajectories (the robots of a swarm sharing one learner) fit one R̂ and
     /// one p̂ (trajectories are numbered from 0 in the order they start).

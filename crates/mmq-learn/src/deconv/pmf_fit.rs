@@ -133,18 +133,16 @@ impl Deconvolver {
             // the variance its delivery would have under p, Σ_k (p(k)(1 − p(k)) + δ) y²_{t−k}.
             // R̂ does not change between the passes: its predictions are found once.
             // One set of predictions per deconvolver and trajectory.
-            let preds: Vec<(usize, &Trail, Predictions)> = systems
+            let preds: Vec<(&Trail, Predictions, f64)> = systems
                 .iter()
-                .flat_map(|(di, r, _)| {
-                    let d = &ds[*di];
-                    d.stats.trails().iter().map(move |tr| (*di, tr, Predictions::of(tr, r, k_n)))
+                .flat_map(|(di, r, rm)| {
+                    ds[*di].stats.trails().iter().map(move |tr| (tr, Predictions::of(tr, r, k_n), *rm))
                 })
                 .collect();
-            let rmax_of = |di: usize| systems.iter().find(|s| s.0 == di).map_or(0.0, |s| s.2);
             for _ in 0..passes {
-                let sum = preds.iter().fold(None, |sum, (di, tr, pred)| {
-                    add_system(sum, weighted_stats(tr, pred, &p, rmax_of(*di)))
-                });
+                let sum = preds
+                    .iter()
+                    .fold(None, |sum, (tr, pred, rm)| add_system(sum, weighted_stats(tr, pred, &p, *rm)));
                 let Some((mut aw, cw)) = sum else { break };
                 let trace_w: f64 = (0..k_n).map(|i| aw[i * k_n + i]).sum();
                 if trace_w <= 0.0 {

@@ -26,8 +26,7 @@ impl DeconvModel {
 
     /// Makes `t` the current trajectory (a new stream for one that has not started).
     pub(crate) fn put_trajectory(&mut self, t: Trajectory) {
-        let stream = t.stream.unwrap_or_else(|| self.deconv.new_stream());
-        self.deconv.set_stream(stream);
+        self.deconv.enter(t.stream);
         if let Some(c) = self.confidence.as_mut() {
             c.recent = t.recent;
         }
