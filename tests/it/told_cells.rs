@@ -1,6 +1,6 @@
 //! `deconv-model`'s diagnostic `told_cells` end to end: on the grid, where the state is
-//! no belief, every choice is the agent bit for bit; on the realistic robot, told the
-//! true cells, it learns from other pairs than the agent.
+//! no belief, every choice is the agent bit for bit; on the realistic robot and in a
+//! realistic swarm, told the true cells, it learns from other pairs than the agent.
 
 use crate::common::*;
 
@@ -26,4 +26,6 @@ fn told_cells_changes_nothing_on_the_grid_and_something_on_the_robot() {
     }
     let robot = ["--env", "robot", "--robot", "profile=realistic", "--steps", "1500"];
     assert_ne!(metrics("both", &robot), metrics("none", &robot));
+    let swarm = ["--env", "swarm", "--robot", "profile=realistic", "--swarm", "robots=2", "--steps", "1500"];
+    assert_ne!(metrics("both", &swarm), metrics("none", &swarm), "the swarm's robots are told nothing");
 }

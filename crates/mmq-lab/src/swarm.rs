@@ -308,6 +308,11 @@ fn learn(
                 r.step(st, seat.s, seat.a, seat.model, seat.explored);
             }
             let learner = minds.of(st.robot);
+            if learner.needs_truth() {
+                // Where the primitive that ended took the robot (its start was set when
+                // the primitive was chosen).
+                seat.truth.true_next_state = env.true_state(st.robot);
+            }
             observe(seat, learner, st, cfg.window);
             decisions += 1;
             start_decision(env, st.robot, seat, learner, cfg.steps).map_err(env_err)?;
@@ -341,6 +346,9 @@ fn start_decision(
     if seat.traj.steps_done >= steps || learner.failure().is_some() {
         env.park(i);
         return Ok(());
+    }
+    if learner.needs_truth() {
+        seat.truth.true_state = env.true_state(i);
     }
     let d = learner.act(seat.s, &mut seat.rng);
     seat.a = d.action;

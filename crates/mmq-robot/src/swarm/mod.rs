@@ -427,6 +427,14 @@ impl SwarmEnv {
         self.members.iter().map(|m| m.core.true_state(&self.phys.bodies[m.body])).collect()
     }
 
+    /// Robot `robot`'s true state where its state is a belief (the realistic profile),
+    /// as the single robot's `Env::true_state`; `None` for the ideal profile.
+    pub fn true_state(&self, robot: usize) -> Option<State> {
+        let m = self.members.get(robot)?;
+        m.core.real.as_ref()?;
+        m.core.true_state(&self.phys.bodies[m.body]).ok()
+    }
+
     /// Primitives of robot `robot` that ended in a bump into another robot.
     pub fn robot_bumps(&self, robot: usize) -> u64 {
         self.members.get(robot).map_or(0, |m| m.robot_bumps)
