@@ -63,21 +63,31 @@ pub struct PaperArgs {
     /// Fidelity for Figs. 6–12: grid, robot or both.
     #[arg(long, value_enum, default_value = "grid")]
     pub env: EnvChoice,
-    /// Seeds per setting (default: 20 grid, 5 robot; quick: 6 grid, 2 robot).
+    /// Seeds of every setting (default: the spec's, 20 grid and 5 robot; quick: 3 in 10 of them).
     #[arg(long)]
     pub seeds: Option<u64>,
-    /// Steps per seed (default: 150,000; quick: 30,000 grid, 3,000 robot).
+    /// Steps per seed at the paper's horizon; every spec scales by steps ÷ 150,000
+    /// (default: the spec's, 150,000; quick: 30,000 grid, 3,000 robot).
     #[arg(long)]
     pub steps: Option<u64>,
-    /// First master seed.
-    #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    /// First master seed (default: the spec's, 0).
+    #[arg(long)]
+    pub seed: Option<u64>,
     /// Smoke-test budget (seconds): every figure, tiny numbers.
     #[arg(long)]
     pub quick: bool,
-    /// Output directory.
+    /// Output directory; its runs/ keeps every finished seed, so the same command again
+    /// resumes an interrupted report.
     #[arg(long, short, default_value = "report")]
     pub out: PathBuf,
+    /// Run part K of N of every study's jobs (e.g. 1/4) into OUT/runs and draw nothing;
+    /// then `--merge` the shards' folders.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// A report folder (a shard's --out) whose finished seeds are taken before running;
+    /// repeat for several.
+    #[arg(long, value_name = "DIR")]
+    pub merge: Vec<PathBuf>,
     /// Folder of edited figure specs (e.g. a copy of worlds/sweeps/paper-fig6.toml) run
     /// instead of the built-in ones of the same name.
     #[arg(long)]

@@ -1,9 +1,11 @@
 //! `mmq paper`: the paper's report (`mmq_report::paper`) from the command line's flags,
-//! with progress bars and a closing line.
+//! with progress bars.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_lab::config::EnvKind;
+use mmq_lab::study::Budget;
+use mmq_lab::sweep::Shard;
 use mmq_report::paper::PaperRequest;
 
 use crate::cli::{EnvChoice, PaperArgs};
@@ -21,17 +23,15 @@ pub fn paper(a: PaperArgs, stop: &AtomicBool) -> Result<(), Failure> {
     let req = PaperRequest {
         fig: a.fig,
         envs,
-        quick: a.quick,
-        seeds: a.seeds,
-        steps: a.steps,
-        seed: a.seed,
+        budget: Budget { quick: a.quick, steps: a.steps, seeds: a.seeds, seed: a.seed },
         out: a.out.clone(),
         specs: a.specs,
+        shard: a.shard.as_deref().map(Shard::parse).transpose()?,
+        merge: a.merge,
     };
-    let done = mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet))?;
-    println!("wrote {} ({} files) in {:.1} s", done.report.display(), done.files, done.wall_s);
+    mmq_report::paper::paper(&req, stop, &progress::Bars::new(a.quiet))?;
     if stop.load(Ordering::SeqCst) {
-        eprintln!("interrupted: the report covers what finished");
+        eprintln!("interrupted: the report covers the seeds that finished; the same command again resumes");
     }
     Ok(())
 }

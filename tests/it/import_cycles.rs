@@ -354,7 +354,7 @@ fn mmq_lab_has_no_module_import_cycle() {
     // The reader sees real code: the runner drives the step loop, the executor the
     // runner, and the step loop and executor share the trajectory types.
     for (m, d) in
-        [("runner", "stepper"), ("exec", "runner"), ("stepper", "trajectory"), ("comparison", "paper")]
+        [("runner", "stepper"), ("exec", "runner"), ("stepper", "trajectory"), ("comparison", "study")]
     {
         assert!(g[m].contains(d), "{m} should use {d}: {:?}", g[m]);
     }

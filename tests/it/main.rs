@@ -10,6 +10,7 @@ mod common;
 mod import_cycles;
 mod limits;
 mod paper;
+mod paper_resume;
 mod reference;
 mod robustness;
 mod served;

@@ -4,27 +4,25 @@
 //! and under three non-Poisson delays (uniform 0–26, a Poisson(3)/Poisson(25) mixture
 //! and a WiFi-latency-like histogram) at ε ∈ {0.05, 0.1}; plus the deconvolving
 //! learners told the true delay pmf (an ablation of the estimate) on 9×9. The settings
-//! and their seeds are the spec `worlds/sweeps/paper-comparison.toml` ([`SPEC`]); this
-//! module runs them at a budget and summarises each. Drawing, the CSV files and the
-//! report live in mmq-report.
+//! and their seeds are the spec `worlds/sweeps/paper-comparison.toml` ([`SPEC`]), run
+//! like every study into its store ([`crate::study`]); this module orders its settings
+//! for the report and summarises each. Drawing, the CSV files and the report live in
+//! mmq-report.
 //!
 //! Fixed for every setting: α = 0.1, γ = 0.9, q0 = 10, λ̂max = 50 (the largest delay
-//! the learners are told of), 150,000 steps; seeds per setting: see [`ComparisonOptions`]
-//! (`--seeds` sets them all).
-
-use std::path::PathBuf;
+//! the learners are told of), 150,000 steps; seeds per setting as the spec's parts give
+//! them (20 for the headline settings on 9×9), at the budget of [`crate::study::Budget`].
 
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
-use mmq_learn::DelayEstimate;
 use mmq_learn::LearnerKind;
 use mmq_learn::deconv::{pmf_mean, pmf_median, truncated_pmf};
 use serde::{Deserialize, Serialize};
 
-use crate::config::RunConfig;
 use crate::error::LabError;
-use crate::paper::Group;
 use crate::runner::DIAGNOSTICS_EVERY;
+use crate::study::{Group, SeedRecord};
+use crate::sweep::SweepSpec;
 
 /// Every learner of the study, in report order.
 pub const LEARNERS: [LearnerKind; 8] = [
@@ -60,55 +58,8 @@ pub const DECONV: [LearnerKind; 2] = [LearnerKind::DeconvQ, LearnerKind::DeconvM
 pub const JUDGE_AT: u64 = 50_000;
 
 /// The study's spec (`worlds/sweeps/paper-comparison.toml`, built into the binary): the
-/// settings it runs and their seeds. [`crate::paper::SPECS`] lists it with the figures.
+/// settings it runs and their seeds. [`crate::study::SPECS`] lists it with the figures.
 pub const SPEC: &str = include_str!("../../../worlds/sweeps/paper-comparison.toml");
-
-/// Budget of the study: the spec's seeds (20 per headline setting on 9×9, 5 for the rest
-/// and the told-pmf ablation; 5 and 2 on the maze), which keeps the whole study near an
-/// hour on two cores (the deconvolving learners take ~3 s per 9×9 seed and ~13 s per
-/// maze seed), or a quick budget, or one seed count for every setting.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ComparisonOptions {
-    /// Seeds of every setting, instead of the spec's.
-    pub seeds: Option<u64>,
-    /// The quick budget: 3, 2 or 1 seeds where the spec gives 20, 5 or 2.
-    pub quick: bool,
-    /// Decision steps per seed.
-    pub steps: u64,
-    /// First master seed.
-    pub seed: u64,
-    /// Steps per curve point.
-    pub window: u64,
-    /// A folder whose `paper-comparison.toml`, if there is one, is run instead of the
-    /// built-in spec.
-    #[serde(default)]
-    pub specs: Option<PathBuf>,
-}
-
-impl ComparisonOptions {
-    /// The full budget (the spec's seeds × 150,000 steps) or a quick one (3, 2 or 1 seeds
-    /// × 20,000).
-    pub fn new(quick: bool) -> Self {
-        let (steps, window) = if quick { (20_000, 1000) } else { (150_000, 2500) };
-        Self { seeds: None, quick, steps, seed: 0, window, specs: None }
-    }
-
-    /// The same seed count `n` for every setting.
-    pub fn set_all_seeds(&mut self, n: u64) {
-        self.seeds = Some(n);
-    }
-
-    /// Seeds of a setting the spec runs over `spec_seeds` seeds.
-    pub fn seeds_for(&self, spec_seeds: u64) -> u64 {
-        match (self.seeds, self.quick) {
-            (Some(n), _) => n,
-            (None, false) => spec_seeds,
-            (None, true) if spec_seeds >= 20 => 3,
-            (None, true) if spec_seeds >= 5 => 2,
-            (None, true) => 1,
-        }
-    }
-}
 
 /// One setting of the study.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -158,11 +109,10 @@ pub fn delay_label(delay: &str) -> String {
     }
 }
 
-/// Every setting of the study with its run configuration at the budget of `o`, in
-/// report order: the told-pmf ablation last, otherwise by world, delay, ε and learner in
-/// the order the spec first names them.
-pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError> {
-    let spec = crate::paper::figure_spec(o.specs.as_deref(), "paper-comparison")?;
+/// Every setting of the study with its cell in `spec`, in report order: the told-pmf
+/// ablation last, otherwise by world, delay, ε and learner in the order the spec first
+/// names them.
+pub fn plan(spec: &SweepSpec) -> Vec<(Setting, usize)> {
     let mut v = Vec::with_capacity(spec.plan.cells.len());
     for c in 0..spec.plan.cells.len() {
         let cell = spec.config(c);
@@ -175,8 +125,7 @@ pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError
             told: cell.learner.settings.deconv().is_some_and(|d| d.told_delay.is_some()),
             world,
         };
-        let seeds = o.seeds_for(spec.plan.seeds_of(c).len() as u64);
-        v.push((setting, crate::paper::at_budget(cell, o.steps, o.window, o.seed, seeds)));
+        v.push((setting, c));
     }
     // Each setting's key: world, delay, ε and learner as the spec first names them.
     let keys: Vec<[String; 4]> = v
@@ -191,16 +140,16 @@ pub fn plan(o: &ComparisonOptions) -> Result<Vec<(Setting, RunConfig)>, LabError
         .collect();
     let mut ranked: Vec<_> = ranks.into_iter().zip(v).collect();
     ranked.sort_by_key(|(rank, _)| *rank);
-    Ok(ranked.into_iter().map(|(_, setting)| setting).collect())
+    ranked.into_iter().map(|(_, setting)| setting).collect()
 }
 
 /// The seeds of the first 9×9 headline setting, the first other 9×9 setting, and the
 /// same on the other world, as the report states the budget.
-pub fn seed_budget(plan: &[(Setting, RunConfig)]) -> [u64; 4] {
+pub fn seed_budget(spec: &SweepSpec, plan: &[(Setting, usize)]) -> [u64; 4] {
     let of = |nine: bool, headline: bool| {
         plan.iter()
             .find(|(s, _)| (s.world == WORLDS[0]) == nine && s.is_headline() == headline)
-            .map_or(0, |(_, c)| c.seeds)
+            .map_or(0, |(_, c)| spec.plan.seeds_of(*c).len() as u64)
     };
     [of(true, true), of(true, false), of(false, true), of(false, false)]
 }
@@ -265,18 +214,19 @@ pub fn optimal_greedy_score(world: &World, eval_steps: u64) -> f64 {
     goal * (eval_steps as f64 / cycle).floor() / eval_steps as f64
 }
 
-/// A seed's delay estimate after `t` steps (sampled by the runner), if it has one.
-fn delay_at(r: &crate::SeedResult, t: u64) -> Option<&DelayEstimate> {
-    r.run.diagnostics.iter().find(|s| s.step == t).and_then(|s| s.diagnostics.delay.as_ref())
+/// A seed's delay estimate after `t` steps (sampled by the runner), if it has one: its
+/// median and mean.
+fn delay_at(r: &SeedRecord, t: u64) -> Option<(f64, f64)> {
+    r.delay_samples.iter().find(|s| s.0 == t).map(|s| (s.1, s.2))
 }
 
-/// Summarises a group run by `run_groups` for `setting`.
+/// Summarises the group of `setting` as its study's store holds it.
 pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, LabError> {
     let optimum = mmq_core::optimum(world).gain;
     let best = optimal_greedy_score(world, g.cfg.eval_steps);
     let rs = &g.results;
     let greedy: Vec<f64> = rs.iter().map(|r| r.greedy_per_step).collect();
-    let curve = |field: fn(&DelayEstimate) -> f64| -> Vec<(u64, MeanCi)> {
+    let curve = |field: fn((f64, f64)) -> f64| -> Vec<(u64, MeanCi)> {
         (1..=g.cfg.steps / DIAGNOSTICS_EVERY)
             .filter_map(|i| {
                 let t = i * DIAGNOSTICS_EVERY;
@@ -290,7 +240,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
     let pmfs: Vec<Vec<f64>> = rs
         .iter()
         .filter_map(|r| {
-            let p = &r.diagnostics.delay.as_ref()?.pmf;
+            let p = r.delay_pmf.as_ref()?;
             p.get(..=50).map(<[f64]>::to_vec)
         })
         .collect();
@@ -303,7 +253,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         .then(|| {
             rs.iter()
                 .filter_map(|r| delay_at(r, JUDGE_AT))
-                .map(|d| (d.median - true_median).abs())
+                .map(|d| (d.0 - true_median).abs())
                 .reduce(f64::max)
         })
         .flatten();
@@ -313,7 +263,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         (mean_ci(&lo), mean_ci(&hi))
     });
     let _ = true_pmf;
-    let probes: Option<Vec<f64>> = rs.iter().map(|r| r.diagnostics.figure("learner/probes")).collect();
+    let probes: Option<Vec<f64>> = rs.iter().map(|r| r.figure("learner/probes")).collect();
     Ok(Outcome {
         setting: setting.clone(),
         n: rs.len(),
@@ -325,8 +275,8 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         greedy_min: greedy.iter().copied().fold(f64::INFINITY, f64::min),
         greedy_optimal: greedy.iter().filter(|&&x| x >= best - 1e-9).count(),
         seconds: mean_ci(&rs.iter().map(|r| r.wall_time_s).collect::<Vec<_>>()),
-        median_curve: if estimates { curve(|d| d.median) } else { Vec::new() },
-        mean_curve: if estimates { curve(|d| d.mean) } else { Vec::new() },
+        median_curve: if estimates { curve(|d| d.0) } else { Vec::new() },
+        mean_curve: if estimates { curve(|d| d.1) } else { Vec::new() },
         pmf,
         median_error_max,
         lobes,
@@ -379,13 +329,24 @@ mod tests {
                 }
             }
         }
-        let full = plan(&ComparisonOptions::new(false)).unwrap();
+        use crate::study::Budget;
+        let spec = Budget::default().spec(None, "paper-comparison").unwrap();
+        let full = plan(&spec);
         let got: Vec<&Setting> = full.iter().map(|(s, _)| s).collect();
         assert_eq!(got, expected.iter().collect::<Vec<_>>());
-        assert_eq!(seed_budget(&full), [20, 5, 5, 2]);
-        let quick = plan(&ComparisonOptions::new(true)).unwrap();
-        assert_eq!(seed_budget(&quick), [3, 2, 2, 1]);
-        for ((s, c), (_, q)) in full.iter().zip(&quick) {
+        assert_eq!(seed_budget(&spec, &full), [20, 5, 5, 2]);
+        let quick_spec = Budget { quick: true, ..Budget::default() }.spec(None, "paper-comparison").unwrap();
+        let quick = plan(&quick_spec);
+        assert_eq!(seed_budget(&quick_spec, &quick), [6, 2, 2, 1]);
+        for ((s, ci), (_, q)) in full.iter().zip(&quick) {
+            let (c, q) = (spec.config(*ci), quick_spec.config(*q));
+            let (n9, headline) = (s.world == WORLDS[0], s.is_headline());
+            let want = match (n9, headline) {
+                (true, true) => 20,
+                (true, false) | (false, true) => 5,
+                (false, false) => 2,
+            };
+            assert_eq!(spec.plan.seeds_of(*ci).len(), want, "{s:?}");
             c.validate().unwrap();
             // The learner as the study states it: α 0.1, γ 0.9, the setting's ε, q0 10,
             // every setting at its default but the pmf the ablation is told.
@@ -397,20 +358,14 @@ mod tests {
             assert_eq!(c.learner, learner);
             assert_eq!(
                 (c.env, c.baseline, c.save_tables, c.ledger),
-                (crate::EnvKind::Grid, false, false, false)
+                (crate::EnvKind::Grid, true, false, false)
             );
-            let (n9, headline) = (s.world == WORLDS[0], s.is_headline());
-            let want = match (n9, headline) {
-                (true, true) => 20,
-                (true, false) | (false, true) => 5,
-                (false, false) => 2,
-            };
             assert_eq!(
-                (c.seeds, c.steps, c.window, c.eval_steps, c.learner.params.q0),
-                (want, 150_000, 2500, 1000, 10.0),
+                (c.steps, c.window, c.eval_steps, c.learner.params.q0),
+                (150_000, 2500, 1000, 10.0),
                 "{s:?}"
             );
-            assert_eq!((q.steps, q.window), (20_000, 1000));
+            assert_eq!((q.steps, q.window), (30_000, 1000));
         }
         // The comparison names each learner once, and only learners the catalogue has.
         let names: std::collections::BTreeSet<&str> = LEARNERS.iter().map(|k| k.name()).collect();

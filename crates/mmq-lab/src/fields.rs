@@ -24,6 +24,7 @@ pub const FLAGS: &[(&str, &str)] = &[
     ("lambda_hat", "--lambda-hat"),
     ("time_bin_s", "--time-bin"),
     ("shard", "--shard"),
+    ("merge", "--merge"),
     ("save_tables = false", "--no-tables"),
     ("out", "--out"),
     ("fig", "--fig"),

@@ -40,12 +40,16 @@ pub fn csv_number(x: f64) -> String {
     if x.is_nan() { String::new() } else { x.to_string() }
 }
 
+/// The folder of a report that holds its studies' stores (`mmq paper`'s `runs/`).
+pub const RUNS: &str = "runs";
+
 /// What kind of output a folder holds, for [`claim_out_dir`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OutKind {
     /// `mmq run`: config, summary, metrics, policy, tables, recordings.
     Run,
-    /// `mmq paper`: a report with figures and CSVs.
+    /// `mmq paper`: a report with figures and CSVs, and its studies' stores in `runs/`
+    /// (kept: the same command again resumes from them).
     Report,
 }
 
@@ -65,6 +69,11 @@ impl OutKind {
             OutKind::Report => name == "report.md" || matches!(ext, "svg" | "png" | "csv"),
         }
     }
+
+    /// Whether `name` is a folder this kind of output keeps from one run to the next.
+    fn keeps(self, name: &str) -> bool {
+        self == OutKind::Report && name == RUNS
+    }
 }
 
 /// Makes `dir` ready for a new output of `kind`: creates it, or, when it holds a previous
@@ -83,6 +92,9 @@ pub fn claim_out_dir(dir: &Path, kind: OutKind) -> Result<usize, LabError> {
             continue;
         }
         let is_file = entry.file_type().map_err(io)?.is_file();
+        if entry.file_type().map_err(io)?.is_dir() && kind.keeps(&name) {
+            continue;
+        }
         if !is_file || !kind.owns(&name) {
             return Err(LabError::OutDirInUse {
                 path: dir.to_path_buf(),

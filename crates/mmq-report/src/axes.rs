@@ -7,7 +7,7 @@ use std::path::Path;
 
 use mmq_core::{DelayDist, DelayUnit};
 use mmq_lab::RunConfig;
-use mmq_lab::paper::Group;
+use mmq_lab::study::Group;
 use mmq_learn::LearnerSettings;
 
 use crate::ReportError;

@@ -8,19 +8,18 @@ mod csv;
 use std::collections::HashMap;
 use std::fmt::Write as _;
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
 
 use mmq_core::World;
 use mmq_core::stats::MeanCi;
-use mmq_lab::comparison::{self as study, ComparisonOptions, DECONV, JUDGE_AT, LEARNERS, Outcome};
-use mmq_lab::paper::{self as lab_paper};
-use mmq_lab::{Control, LabError};
+use mmq_lab::LabError;
+use mmq_lab::comparison::{self as study, DECONV, JUDGE_AT, LEARNERS, Outcome};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
 
 use crate::format::{mean_num as num, mean_pct as pct};
+use crate::paper::Studies;
 
-use crate::{Doc, Progress, ReportError};
+use crate::{Doc, ReportError};
 
 /// Finds the outcome of one setting.
 struct Index<'a> {
@@ -44,23 +43,16 @@ impl<'a> Index<'a> {
     }
 }
 
-/// Runs the study and returns its report section.
-pub(crate) fn run(
-    o: &ComparisonOptions,
-    out: &Path,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<Doc, ReportError> {
-    let plan = study::plan(o)?;
-    let budget = study::seed_budget(&plan);
-    let (settings, cfgs): (Vec<_>, Vec<_>) = plan.into_iter().unzip();
-    prog.begin(lab_paper::total_steps(&cfgs), "comparison");
-    let progress = |n: u64| prog.advance(n);
-    let groups = lab_paper::run_groups(cfgs, Control { stop, progress: &progress })?;
-    prog.end();
+/// Runs the study into its store and returns its report section (none for a shard).
+pub(crate) fn run(ctx: &Studies<'_>) -> Result<Option<Doc>, ReportError> {
+    let spec = ctx.spec("paper-comparison")?;
+    let plan = study::plan(&spec);
+    let budget = study::seed_budget(&spec, &plan);
+    let Some(groups) = ctx.run("paper-comparison", &spec, "comparison")? else { return Ok(None) };
     let mut worlds: HashMap<std::path::PathBuf, World> = HashMap::new();
-    let mut outs: Vec<Outcome> = Vec::with_capacity(groups.len());
-    for (s, g) in settings.iter().zip(&groups) {
+    let mut outs: Vec<Outcome> = Vec::with_capacity(plan.len());
+    for (s, c) in &plan {
+        let g = &groups[*c];
         let world = match worlds.entry(g.cfg.world.clone()) {
             std::collections::hash_map::Entry::Occupied(e) => e.into_mut(),
             std::collections::hash_map::Entry::Vacant(e) => {
@@ -70,11 +62,12 @@ pub(crate) fn run(
         };
         outs.push(study::outcome(s, g, world)?);
     }
-    report(o, budget, out, &outs)
+    let steps = groups.first().map_or(0, |g| g.cfg.steps);
+    report(steps, budget, ctx.out, &outs).map(Some)
 }
 
-/// The section of `outs`, run with `o` and `seeds` (as [`study::seed_budget`] gives them).
-fn report(o: &ComparisonOptions, seeds: [u64; 4], out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
+/// The section of `outs`, run for `steps` with `seeds` (as [`study::seed_budget`] gives them).
+fn report(steps: u64, seeds: [u64; 4], out: &Path, outs: &[Outcome]) -> Result<Doc, ReportError> {
     let ix = Index::new(outs);
     let mut sec = Doc::new(out);
     let md = &mut sec.md;
@@ -94,7 +87,7 @@ fn report(o: &ComparisonOptions, seeds: [u64; 4], out: &Path, outs: &[Outcome]) 
          ground truth: an upper bound, not a real agent. `deconv-q` and `deconv-model` are told only λ̂max and \
          estimate the delay distribution online (docs/algorithms/deconv-q.md, deconv-model.md); \"told pmf\" \
          rows give them the true distribution instead (ablation).\n",
-        o.steps, seeds[0], seeds[1], seeds[2], seeds[3]
+        steps, seeds[0], seeds[1], seeds[2], seeds[3]
     );
     // Headline: 9×9 at ε = 0.05 and 0.1 for the four non-trivial delays.
     let headline_delays: Vec<(String, String)> =

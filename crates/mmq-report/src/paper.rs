@@ -1,6 +1,8 @@
-//! The paper's report: runs the paper's experiments (mmq-lab), draws every figure
-//! (mmq-plot) and writes `report.md` with the paper's value, ours (mean ± 95 % interval)
-//! and the setting side by side, pictures inlined.
+//! The paper's report: runs the paper's studies (their specs, by the sweep engine, into
+//! the stores in the report's `runs/`), draws every figure (mmq-plot) from the stores
+//! and writes `report.md` with the paper's value, ours (mean ± 95 % interval) and the
+//! setting side by side, pictures inlined. A report interrupted resumes where it
+//! stopped; shards of it run apart and merge.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -12,7 +14,8 @@ use mmq_core::stats::MeanCi;
 use mmq_core::{Move, World};
 use mmq_lab::Control;
 use mmq_lab::config::EnvKind;
-use mmq_lab::paper::{self, Group, PaperOptions};
+use mmq_lab::study::{self, Budget, Group, SeedRecord};
+use mmq_lab::sweep::Shard;
 use mmq_learn::LearnerKind;
 use mmq_plot::{ActionProbabilities, GridHeatmap, LineChart, PolicyArrows, RefLine, Series};
 
@@ -21,10 +24,12 @@ use crate::{Doc, Progress, ReportError, axes};
 mod check;
 mod early;
 mod fig6_studies;
+mod studies;
 mod theirs;
 use check::FigureSpec;
 use early::{fig2, fig3, fig4, series_f};
 use fig6_studies::{horizon, sensitivity};
+pub(crate) use studies::Studies;
 use theirs::Theirs;
 
 /// A headline row: label, paper's value, reference value, ours from (groups, optimum).
@@ -90,19 +95,17 @@ pub struct PaperRequest {
     pub fig: String,
     /// The fidelities Figs. 6–12 run on (the other figures are the grid's).
     pub envs: Vec<EnvKind>,
-    /// The smoke-test budget instead of the paper's.
-    pub quick: bool,
-    /// Seeds per setting, instead of the figure's own.
-    pub seeds: Option<u64>,
-    /// Decision steps per run, instead of the figure's own.
-    pub steps: Option<u64>,
-    /// The first seed.
-    pub seed: u64,
-    /// The report's folder.
+    /// What the budget flags (`--quick`, `--steps`, `--seeds`, `--seed`) ask.
+    pub budget: Budget,
+    /// The report's folder; its `runs/` holds the studies' stores.
     pub out: PathBuf,
     /// A folder of figure specs that replace the built-in ones of the same name (an
     /// edited `paper-fig6.toml` gives Fig. 6 and its section for the variant).
     pub specs: Option<PathBuf>,
+    /// The part of every study's jobs to run (`K/N`); a shard draws nothing.
+    pub shard: Option<Shard>,
+    /// Report folders (shards' outputs) whose finished jobs are taken before running.
+    pub merge: Vec<PathBuf>,
 }
 
 impl PaperRequest {
@@ -118,9 +121,9 @@ impl PaperRequest {
 /// What a finished (or interrupted) report wrote.
 #[derive(Debug, Clone)]
 pub struct PaperOutcome {
-    /// `report.md`.
+    /// `report.md`, or the stores' folder `runs/` for a shard (which draws nothing).
     pub report: PathBuf,
-    /// Files written, `report.md` included.
+    /// Files written, `report.md` included (none for a shard).
     pub files: usize,
     /// Wall time in seconds.
     pub wall_s: f64,
@@ -131,26 +134,29 @@ pub struct PaperOutcome {
 pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result<PaperOutcome, ReportError> {
     let clock = Instant::now();
     let parts = parts(&a.fig)?;
+    if let Some(m) = a.merge.iter().find(|m| !m.join(study::RUNS).is_dir()) {
+        return Err(mmq_lab::LabError::param(
+            "merge",
+            m.display(),
+            "a report folder that holds runs/ (a shard's out folder)",
+        )
+        .into());
+    }
     let replaced = mmq_lab::output::claim_out_dir(&a.out, mmq_lab::output::OutKind::Report)?;
     if replaced > 0 {
         prog.notice(&format!("{}: replacing the previous report's {replaced} file(s)", a.out.display()));
     }
     let mut rep = Doc::new(&a.out);
     let envs = &a.envs;
-    let opts_for = |env: EnvKind| {
-        let mut o = PaperOptions::new(a.quick, env);
-        if let Some(s) = a.seeds {
-            o.seeds = s;
-        }
-        if let Some(s) = a.steps {
-            o.steps = s;
-            o.window = (s / 60).max(1);
-        }
-        o.seed = a.seed;
-        o.specs = a.specs.clone();
-        o
+    let ctx = Studies {
+        budget: a.budget,
+        specs: a.specs.as_deref(),
+        out: &a.out,
+        shard: a.shard,
+        merge: &a.merge,
+        stop,
+        prog,
     };
-    let grid = opts_for(EnvKind::Grid);
     let _ = writeln!(
         rep.md,
         "# Reproduction: Multiple-Model Q-Learning for Stochastic Reinforcement Delays\n\n\
@@ -163,13 +169,13 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
          measured on this machine (see docs/reproduction.md).\n",
         a.fig,
         a.env_name(),
-        if a.quick { " --quick (smoke-test budget: numbers are not the paper's)" } else { "" },
+        if a.budget.quick { " --quick (smoke-test budget: numbers are not the paper's)" } else { "" },
         env!("CARGO_PKG_VERSION"),
         rayon::current_num_threads()
     );
     if let Some(dir) = &a.specs {
         let mine: Vec<String> =
-            paper::SPECS.iter().map(|s| format!("{}.toml", s.0)).filter(|f| dir.join(f).exists()).collect();
+            study::SPECS.iter().map(|s| format!("{}.toml", s.0)).filter(|f| dir.join(f).exists()).collect();
         let mine = if mine.is_empty() { "none".to_string() } else { mine.join(", ") };
         let _ = writeln!(
             rep.md,
@@ -179,39 +185,42 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
     }
     let mut headline: Vec<(EnvKind, Vec<Group>, f64)> = Vec::new();
     for part in &parts {
-        let o = &grid;
+        let on_grid = envs.contains(&EnvKind::Grid);
         match part {
-            Part::Fig2 if envs.contains(&EnvKind::Grid) => fig2(o, &mut rep, stop, prog)?,
-            Part::Fig3 if envs.contains(&EnvKind::Grid) => fig3(o, &mut rep, stop, prog)?,
-            Part::Fig4 if envs.contains(&EnvKind::Grid) => fig4(o, &mut rep, stop, prog)?,
-            Part::Sensitivity if envs.contains(&EnvKind::Grid) => sensitivity(o, &mut rep, stop, prog)?,
+            Part::Fig2 if on_grid => fig2(&ctx, &mut rep)?,
+            Part::Fig3 if on_grid => fig3(&ctx, &mut rep)?,
+            Part::Fig4 if on_grid => fig4(&ctx, &mut rep)?,
+            Part::Sensitivity if on_grid => sensitivity(&ctx, &mut rep)?,
             Part::Comparison => {
-                let mut bo = mmq_lab::comparison::ComparisonOptions::new(a.quick);
-                if let Some(n) = a.seeds {
-                    bo.set_all_seeds(n);
+                if let Some(sec) = crate::comparison::run(&ctx)? {
+                    rep.md.push_str(&sec.md);
+                    rep.files.extend(sec.files);
                 }
-                if let Some(s) = a.steps {
-                    bo.steps = s;
-                    bo.window = (s / 60).max(1);
-                }
-                bo.seed = a.seed;
-                bo.specs = a.specs.clone();
-                let sec = crate::comparison::run(&bo, &a.out, stop, prog)?;
-                rep.md.push_str(&sec.md);
-                rep.files.extend(sec.files);
             }
             Part::Fig6 => {
-                if envs.contains(&EnvKind::Grid) {
-                    horizon(o, &mut rep, stop, prog)?;
+                if on_grid {
+                    horizon(&ctx, &mut rep)?;
                 }
                 for &env in envs {
-                    let o = opts_for(env);
-                    let (groups, optimum) = fig6(&o, &mut rep, stop, prog)?;
-                    headline.push((env, groups, optimum));
+                    if let Some((groups, optimum)) = fig6(&ctx, env, &mut rep)? {
+                        headline.push((env, groups, optimum));
+                    }
                 }
             }
             _ => {}
         }
+    }
+    if let Some(s) = a.shard {
+        // A shard draws nothing: its part of every study is in the stores.
+        let done =
+            PaperOutcome { report: a.out.join(study::RUNS), files: 0, wall_s: clock.elapsed().as_secs_f64() };
+        prog.say(&format!(
+            "ran shard {s} of the studies into {} in {:.1} s; draw the report from every shard's folder \
+             with `mmq paper --merge DIR --merge DIR ...`\n",
+            done.report.display(),
+            done.wall_s
+        ));
+        return Ok(done);
     }
     if !headline.is_empty() {
         let c = &headline[0].1[0].cfg;
@@ -289,7 +298,7 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
                         .results
                         .iter()
                         .filter_map(|r| r.baseline.as_ref())
-                        .map(|b| b.earned_total / b.steps_done.max(1) as f64)
+                        .map(study::RunRecord::earned_per_step)
                         .collect();
                     num(&mmq_core::stats::mean_ci(&xs))
                 }),
@@ -341,43 +350,26 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
         let at = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
         rep.md.insert_str(
             at,
-            "**Interrupted** (Ctrl-C or SIGTERM): the runs stopped early, so the figures and numbers \
-             cover only the steps that ran; the settings stated are those asked for.\n\n",
+            "**Interrupted** (Ctrl-C or SIGTERM): the figures and numbers cover only the seeds that \
+             finished; the settings stated are those asked for. The same command again resumes the runs \
+             (finished seeds are kept in `runs/`).\n\n",
         );
     }
     let report = a.out.join("report.md");
     mmq_lab::output::write_atomic(&report, rep.md.as_bytes())?;
-    Ok(PaperOutcome { report, files: rep.files.len() + 1, wall_s: clock.elapsed().as_secs_f64() })
+    let done = PaperOutcome { report, files: rep.files.len() + 1, wall_s: clock.elapsed().as_secs_f64() };
+    prog.say(&format!("wrote {} ({} files) in {:.1} s\n", done.report.display(), done.files, done.wall_s));
+    Ok(done)
 }
 
-fn run(
-    cfgs: Vec<mmq_lab::RunConfig>,
-    label: &str,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<Vec<Group>, ReportError> {
-    prog.begin(paper::total_steps(&cfgs), label);
-    let progress = |n: u64| prog.advance(n);
-    let groups = paper::run_groups(cfgs, Control { stop, progress: &progress })?;
-    prog.end();
-    Ok(groups)
-}
-
-fn fig6(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(Vec<Group>, f64), ReportError> {
-    let env = o.env.name();
-    let sfx = if o.env == EnvKind::Robot { "-robot" } else { "" };
-    let cfgs = paper::fig6_configs(o)?;
-    let name = if o.env == EnvKind::Robot { "paper-fig6-robot" } else { "paper-fig6" };
-    let spec = FigureSpec {
-        file: paper::spec_source(o.specs.as_deref(), name),
-        figure: "Fig. 6",
-        one_value: check::ONE_VALUE,
-    };
+fn fig6(ctx: &Studies<'_>, env: EnvKind, rep: &mut Doc) -> Result<Option<(Vec<Group>, f64)>, ReportError> {
+    let robot = env == EnvKind::Robot;
+    let env_name = env.name();
+    let sfx = if robot { "-robot" } else { "" };
+    let name = if robot { "paper-fig6-robot" } else { "paper-fig6" };
+    let spec_file = ctx.spec(name)?;
+    let cfgs = study::configs(&spec_file);
+    let spec = FigureSpec { file: ctx.source(name), figure: "Fig. 6", one_value: check::ONE_VALUE };
     let kinds: Vec<LearnerKind> = cfgs.iter().map(|c| c.learner.kind()).collect();
     if kinds.len() != 2 || !kinds.contains(&LearnerKind::Mmq) || !kinds.contains(&LearnerKind::Q) {
         return Err(spec.error(
@@ -389,7 +381,7 @@ fn fig6(
         ));
     }
     spec.varies_only(&cfgs, &["learner"])?;
-    let mut groups = run(cfgs, &format!("fig 6 {env}"), stop, prog)?;
+    let Some(mut groups) = ctx.run(name, &spec_file, &format!("fig 6 {env_name}"))? else { return Ok(None) };
     // MMQ first, then Q-learning, whatever the spec's order.
     groups.sort_by_key(|g| g.cfg.learner.kind() != LearnerKind::Mmq);
     let world = groups[0].cfg.load_world()?;
@@ -399,8 +391,8 @@ fn fig6(
     let max_delay = mmq.cfg.learner.settings.max_delay().map_or(String::new(), |m| format!(", λ̂max = {m}"));
     let _ = writeln!(
         rep.md,
-        "\n## Fig. 6{}: MMQ vs Q-learning under {} (Section VII), {env}\n\nSetting: {size} {env}, {lambda}{max_delay}, ε = {}, q0 = {}, {} steps, {} seeds.\n",
-        if o.env == EnvKind::Robot { " on the robot" } else { "" },
+        "\n## Fig. 6{}: MMQ vs Q-learning under {} (Section VII), {env_name}\n\nSetting: {size} {env_name}, {lambda}{max_delay}, ε = {}, q0 = {}, {} steps, {} seeds.\n",
+        if robot { " on the robot" } else { "" },
         if axes::is_poisson(&mmq.cfg) {
             "Poisson delay".to_string()
         } else {
@@ -414,8 +406,8 @@ fn fig6(
     let paper_setting = fig6_is_theirs(&groups);
     let (cm, cq) = (mmq.relative_curve(), q.relative_curve());
     let mut chart = LineChart::new(
-        format!("Fig. 6{sfx}: {size} {env}, {lambda}: MMQ vs Q-learning"),
-        if o.env == EnvKind::Robot { "primitive" } else { "step" },
+        format!("Fig. 6{sfx}: {size} {env_name}, {lambda}: MMQ vs Q-learning"),
+        if robot { "primitive" } else { "step" },
         "relative performance (%)",
     );
     chart.series.push(series(&axes::learner_label(&mmq.cfg), &cm, 100.0));
@@ -433,8 +425,8 @@ fn fig6(
     rep.csv(&format!("fig6{sfx}.csv"), &curve_csv("learner", &[("mmq".into(), cm), ("q".into(), cq)]))?;
     // Earned and received reward per step over time.
     let mut chart = LineChart::new(
-        format!("Fig. 6{sfx}: earned and received reward, {env}"),
-        if o.env == EnvKind::Robot { "primitive" } else { "step" },
+        format!("Fig. 6{sfx}: earned and received reward, {env_name}"),
+        if robot { "primitive" } else { "step" },
         "reward per step (window mean)",
     );
     let curves = [
@@ -456,7 +448,7 @@ fn fig6(
     let rows: Vec<(String, Vec<(u64, MeanCi)>)> =
         curves.iter().map(|(n, c)| (n.replace(' ', "_"), c.clone())).collect();
     rep.csv(&format!("fig6-rewards{sfx}.csv"), &curve_csv("series", &rows))?;
-    delay_window(mmq, rep, stop, sfx)?;
+    delay_window(mmq, rep, ctx.stop, sfx)?;
     differs(
         rep,
         "the paper's text is ambiguous on two points. Its eq. 3 divides by t as well (a stray 1/t: we report \
@@ -468,7 +460,7 @@ fn fig6(
          Q-learning explores for longer.",
     );
     maps(&world, mmq, q, rep, sfx)?;
-    Ok((groups, optimum))
+    Ok(Some((groups, optimum)))
 }
 
 /// Whether Fig. 6's two groups (MMQ, then Q-learning) are the paper's setting: its 9×9
@@ -491,7 +483,7 @@ const WINDOW_STEPS: usize = 150;
 fn delay_window(mmq: &Group, rep: &mut Doc, stop: &AtomicBool, sfx: &str) -> Result<(), ReportError> {
     let Some(first) = mmq.results.first() else { return Ok(()) };
     let ctl = Control { stop, progress: &|_| {} };
-    let steps = paper::last_steps(&mmq.cfg, first.seed, WINDOW_STEPS, ctl)?;
+    let steps = study::last_steps(&mmq.cfg, first.seed, WINDOW_STEPS, ctl)?;
     if steps.is_empty() {
         return Ok(());
     }
@@ -551,7 +543,7 @@ fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Doc, sfx: &str) -> Resu
     for (g, name, figs) in [(mmq, "MMQ", [7, 8, 9]), (q, "Q-learning", [10, 11, 12])] {
         let r = &g.results[0];
         let cells = world.num_cells();
-        let visits: Vec<f64> = (0..cells).map(|c| r.run.visits.get(c).copied().unwrap_or(0) as f64).collect();
+        let visits: Vec<f64> = (0..cells).map(|c| r.visits.get(c).copied().unwrap_or(0) as f64).collect();
         let h = GridHeatmap::new(
             format!("Fig. {}{sfx}: visits during learning, {name}", figs[0]),
             world,
@@ -608,6 +600,6 @@ fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Doc, sfx: &str) -> Resu
     rep.csv(&format!("fig7-12{sfx}.csv"), &csv)
 }
 
-fn arrows_of(r: &mmq_lab::SeedResult, c: usize) -> u8 {
+fn arrows_of(r: &SeedRecord, c: usize) -> u8 {
     r.policy_arrows.get(c).copied().unwrap_or(0)
 }

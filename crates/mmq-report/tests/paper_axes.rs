@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use mmq_lab::config::EnvKind;
+use mmq_lab::study::Budget;
 use mmq_report::ReportError;
 use mmq_report::paper::{PaperRequest, paper};
 
@@ -49,12 +50,11 @@ fn run(fig: &str, files: &[(&str, String)]) -> (tempfile::TempDir, Result<PathBu
     let req = PaperRequest {
         fig: fig.into(),
         envs: vec![EnvKind::Grid],
-        quick: true,
-        seeds: Some(1),
-        steps: Some(600),
-        seed: 0,
+        budget: Budget { quick: true, seeds: Some(1), steps: Some(600), seed: None },
         out: out.clone(),
         specs: Some(specs),
+        shard: None,
+        merge: Vec::new(),
     };
     let r = paper(&req, &AtomicBool::new(false), &Quiet).map(|_| out);
     (d, r)

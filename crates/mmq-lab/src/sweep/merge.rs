@@ -2,8 +2,9 @@
 
 use std::path::{Path, PathBuf};
 
+use super::spec::SweepSpec;
 use super::stats::is_result_metric;
-use super::store::{finish_dir, load_results, read_manifest, write_renamed};
+use super::store::{finish_dir, is_finished, load_results, read_job, read_manifest, write_renamed};
 use super::{MAX_JOB_BYTES, MAX_SPEC_BYTES, Metrics};
 use crate::error::LabError;
 use crate::output::write_atomic;
@@ -96,4 +97,44 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
     write_atomic(&out.join("spec.toml"), &spec_text)?;
     let (results_csv, _, _, done) = finish_dir(out, plan, &m0.spec_file, None)?;
     Ok(MergeOutcome { jobs_total: plan.jobs(), done, copied, results_csv })
+}
+
+/// Copies into `into` every job of `spec` finished in `from` that `into` does not hold
+/// (a shard's, say), holding `into`'s lock; a job finished in both must agree. Returns
+/// how many were copied. `from` need not hold this plan alone: jobs are found by their
+/// cell and seed, so a store that ran other budgets too gives what this one needs.
+pub fn merge_jobs(spec: &SweepSpec, from: &Path, into: &Path) -> Result<usize, LabError> {
+    let plan = &spec.plan;
+    let _lock = crate::lock::lock_out_dir(into)?;
+    let mut copied = 0;
+    for j in 0..plan.jobs() {
+        if !is_finished(from, spec, j) {
+            continue;
+        }
+        let src = plan.job_path(from, j);
+        if is_finished(into, spec, j) {
+            let (a, b) = (read_job(from, plan, j), read_job(into, plan, j));
+            if let (Some(a), Some(b)) = (a, b)
+                && !same_results(&a, &b)
+            {
+                let (c, seed) = plan.job(j);
+                return Err(LabError::Config {
+                    file: src.display().to_string(),
+                    message: format!(
+                        "cell {} seed {seed} differs from the result in {}; were they run by different versions?",
+                        plan.cells[c].id,
+                        into.display()
+                    ),
+                });
+            }
+            continue;
+        }
+        let bytes = mmq_core::files::read_bounded(&src, MAX_JOB_BYTES).map_err(|e| LabError::Config {
+            file: src.display().to_string(),
+            message: format!("cannot read the job file: {e}"),
+        })?;
+        write_renamed(&plan.job_path(into, j), &bytes)?;
+        copied += 1;
+    }
+    Ok(copied)
 }

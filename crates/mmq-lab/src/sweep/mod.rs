@@ -25,6 +25,7 @@ mod cell;
 mod merge;
 mod plan;
 mod product;
+mod record;
 mod run;
 mod spec;
 mod stats;
@@ -33,15 +34,16 @@ mod syntax;
 
 use std::collections::BTreeMap;
 
-pub use merge::{MergeOutcome, merge};
+pub use merge::{MergeOutcome, merge, merge_jobs};
 pub use plan::{Plan, PlanCell, Shard};
+pub use record::{RunRecord, SeedRecord};
 pub use run::{
     CellBatches, CellLearners, EventSink, SweepEvent, SweepOutcome, pending_jobs, run_sweep,
     run_sweep_batched, run_sweep_with,
 };
 pub use spec::SweepSpec;
 pub use stats::{CellStats, cell_stats, combine};
-pub use store::{Manifest, load_failures, load_results, read_manifest, results_csv};
+pub use store::{Manifest, load_failures, load_records, load_results, read_manifest, results_csv};
 
 /// Format tag of `sweep.json` and of the per-job files.
 pub const FORMAT: &str = "mmq-sweep/1";

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 
 use super::plan::Shard;
 use super::spec::SweepSpec;
-use super::store::{finish_dir, read_job, write_failed_job, write_job};
+use super::store::{finish_dir, is_finished, write_failed_job, write_job};
 use crate::batch::{BatchLearner, run_batch};
 use crate::config::RunConfig;
 use crate::error::LabError;
@@ -186,7 +186,7 @@ pub fn run_sweep_batched(
 pub fn pending_jobs(spec: &SweepSpec, out: &Path, shard: Option<Shard>) -> Vec<(usize, u64)> {
     let plan = &spec.plan;
     (0..plan.jobs())
-        .filter(|&j| shard.is_none_or(|s| s.contains(j)) && read_job(out, plan, j).is_none())
+        .filter(|&j| shard.is_none_or(|s| s.contains(j)) && !is_finished(out, spec, j))
         .map(|j| plan.job(j))
         .collect()
 }
@@ -215,7 +215,7 @@ fn run_sweep_how(
     // The manifest first, so that a directory killed at once is still recognisable.
     finish_dir(out, plan, &spec_file, shard)?;
     let here: Vec<usize> = (0..plan.jobs()).filter(|&j| shard.is_none_or(|s| s.contains(j))).collect();
-    let have: Vec<bool> = here.par_iter().map(|&j| read_job(out, plan, j).is_some()).collect();
+    let have: Vec<bool> = here.par_iter().map(|&j| is_finished(out, spec, j)).collect();
     let pending: Vec<usize> = here.iter().zip(&have).filter(|x| !*x.1).map(|x| *x.0).collect();
     let skipped = here.len() - pending.len();
 
@@ -258,7 +258,8 @@ fn run_sweep_how(
         } else if r.complete {
             let mut metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
             metrics.extend(curve_points(&r.run, spec.config(c).steps, spec.curve));
-            write_job(out, plan, j, &metrics)?;
+            let record = spec.keeps_records().then(|| super::record::SeedRecord::of(&r));
+            write_job(out, plan, j, &metrics, record)?;
         } else {
             return Ok(());
         }

@@ -31,6 +31,9 @@ pub struct SweepSpec {
     pub(super) worlds: Vec<World>,
     /// Points of the learning curve stored per job (0: none; spec `curve`).
     pub(super) curve: u64,
+    /// Whether each job also stores its seed's record ([`super::SeedRecord`]),
+    /// which a study's report is drawn from; a job without one is not finished then.
+    pub(super) records: bool,
 }
 
 impl SweepSpec {
@@ -93,6 +96,17 @@ impl SweepSpec {
     /// The world of cell `c`.
     pub fn world(&self, c: usize) -> &World {
         &self.worlds[self.world_of[c]]
+    }
+
+    /// The same spec, whose jobs also store their seed's record
+    /// ([`super::SeedRecord`]): a study's report is drawn from those.
+    pub fn with_records(self) -> SweepSpec {
+        SweepSpec { records: true, ..self }
+    }
+
+    /// Whether the jobs store their seed's record.
+    pub fn keeps_records(&self) -> bool {
+        self.records
     }
 }
 
@@ -158,7 +172,16 @@ fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
         .map(|i| fields[i].clone())
         .collect();
     let plan = Plan::new(String::new(), String::new(), fields, axes, seeds, cells);
-    Ok(SweepSpec { file: PathBuf::new(), text: String::new(), plan, configs, world_of, worlds, curve: 0 })
+    Ok(SweepSpec {
+        file: PathBuf::new(),
+        text: String::new(),
+        plan,
+        configs,
+        world_of,
+        worlds,
+        curve: 0,
+        records: false,
+    })
 }
 
 #[cfg(test)]

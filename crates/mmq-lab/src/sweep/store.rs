@@ -9,6 +9,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::plan::{Plan, Shard};
+use super::record::SeedRecord;
+use super::spec::SweepSpec;
 use super::stats::is_result_metric;
 use super::{FORMAT, MAX_JOB_BYTES, MAX_MANIFEST_BYTES, Metrics};
 use crate::error::LabError;
@@ -54,16 +56,32 @@ struct StoredJob {
     metrics: BTreeMap<String, String>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     error: Option<String>,
+    /// The seed's record, when the spec keeps them ([`SweepSpec::with_records`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    record: Option<SeedRecord>,
 }
 
-pub(super) fn encode(x: f64) -> String {
+/// A number as a job file stores it: Rust's shortest round-trip text (`NaN`, `inf`).
+pub(crate) fn encode(x: f64) -> String {
     if x.is_nan() { "NaN".into() } else { x.to_string() }
 }
 
 /// Reads job `j`'s file in `dir` if it is there and belongs to this plan's cell.
 pub(super) fn read_job(dir: &Path, plan: &Plan, j: usize) -> Option<Metrics> {
-    read_stored(dir, plan, j)
-        .and_then(|s| s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect())
+    read_stored(dir, plan, j).and_then(|s| metrics_of(&s))
+}
+
+fn metrics_of(s: &StoredJob) -> Option<Metrics> {
+    s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect()
+}
+
+/// Whether job `j` of `spec` is finished in `dir`: its file is there, belongs to this
+/// plan's cell, and holds the seed's record where the spec keeps records (a failed
+/// job has none and is finished all the same).
+pub(super) fn is_finished(dir: &Path, spec: &SweepSpec, j: usize) -> bool {
+    read_stored(dir, &spec.plan, j).is_some_and(|s| {
+        metrics_of(&s).is_some() && (!spec.keeps_records() || s.record.is_some() || s.error.is_some())
+    })
 }
 
 /// Job `j`'s file in `dir`, if it is there and belongs to this plan's cell.
@@ -88,11 +106,18 @@ fn read_stored(dir: &Path, plan: &Plan, j: usize) -> Option<StoredJob> {
 pub(super) fn write_failed_job(dir: &Path, plan: &Plan, j: usize, error: &str) -> Result<(), LabError> {
     let (_, seed) = plan.job(j);
     let metrics: Metrics = [("seed".to_string(), seed as f64), ("failed".to_string(), 1.0)].into();
-    write_stored(dir, plan, j, &metrics, Some(error))
+    write_stored(dir, plan, j, &metrics, Some(error), None)
 }
 
-pub(super) fn write_job(dir: &Path, plan: &Plan, j: usize, metrics: &Metrics) -> Result<(), LabError> {
-    write_stored(dir, plan, j, metrics, None)
+/// Writes job `j`'s metrics, with its seed's record when given.
+pub(super) fn write_job(
+    dir: &Path,
+    plan: &Plan,
+    j: usize,
+    metrics: &Metrics,
+    record: Option<SeedRecord>,
+) -> Result<(), LabError> {
+    write_stored(dir, plan, j, metrics, None, record)
 }
 
 fn write_stored(
@@ -101,6 +126,7 @@ fn write_stored(
     j: usize,
     metrics: &Metrics,
     error: Option<&str>,
+    record: Option<SeedRecord>,
 ) -> Result<(), LabError> {
     let (c, seed) = plan.job(j);
     let cell = &plan.cells[c];
@@ -120,6 +146,7 @@ fn write_stored(
             })
             .collect(),
         error: error.map(str::to_string),
+        record,
     };
     let text = serde_json::to_string_pretty(&s).unwrap_or_default() + "\n";
     write_renamed(&plan.job_path(dir, j), text.as_bytes())
@@ -136,6 +163,12 @@ pub(super) fn write_renamed(path: &Path, bytes: &[u8]) -> Result<(), LabError> {
         std::fs::create_dir_all(dir).map_err(io)?;
     }
     mmq_core::files::write_renamed(path, bytes).map_err(io)
+}
+
+/// The seed records of every job of `plan` found in `dir` (None where missing, failed,
+/// or stored without one).
+pub fn load_records(dir: &Path, plan: &Plan) -> Vec<Option<SeedRecord>> {
+    (0..plan.jobs()).into_par_iter().map(|j| read_stored(dir, plan, j).and_then(|s| s.record)).collect()
 }
 
 /// Finished results of every job of `plan` found in `dir` (None where missing).
@@ -265,7 +298,7 @@ mod tests {
         for seed in [7u64, (1 << 53) + 1, u64::MAX] {
             let plan = Plan::new("s".into(), String::new(), vec![], vec![], vec![seed], vec![cell.clone()]);
             let metrics: Metrics = [("seed".to_string(), seed as f64), ("steps".into(), 2000.0)].into();
-            write_job(&dir, &plan, 0, &metrics).unwrap();
+            write_job(&dir, &plan, 0, &metrics, None).unwrap();
             let text = std::fs::read_to_string(plan.job_path(&dir, 0)).unwrap();
             let stored: StoredJob = serde_json::from_str(&text).unwrap();
             assert_eq!(stored.metrics["seed"], seed.to_string());

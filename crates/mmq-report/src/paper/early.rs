@@ -3,29 +3,23 @@
 //! label, x value and table row is read from the settings that ran ([`crate::axes`]).
 
 use std::fmt::Write as _;
-use std::sync::atomic::AtomicBool;
 
 use crate::format::mean_pct as pct;
 use mmq_core::stats::MeanCi;
 use mmq_lab::RunConfig;
-use mmq_lab::paper::{self, Group, PaperOptions};
+use mmq_lab::study::{self, Group};
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine, Series};
 
 use super::check::{self, FigureSpec};
 use super::theirs::{self, Theirs};
-use super::{differs, run, series};
-use crate::{Doc, Progress, ReportError, axes};
+use super::{Studies, differs, series};
+use crate::{Doc, ReportError, axes};
 
-pub(super) fn fig2(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let cfgs = paper::fig2_configs(o)?;
-    check_fig2(&cfgs, &spec(o, "paper-fig2", "Fig. 2"))?;
-    let groups = run(cfgs, "fig 2", stop, prog)?;
+pub(super) fn fig2(ctx: &Studies<'_>, rep: &mut Doc) -> Result<(), ReportError> {
+    let file = ctx.spec("paper-fig2")?;
+    check_fig2(&study::configs(&file), &spec(ctx, "paper-fig2", "Fig. 2"))?;
+    let Some(groups) = ctx.run("paper-fig2", &file, "fig 2")? else { return Ok(()) };
     let Some(first) = groups.first() else { return Ok(()) };
     let means = groups.iter().map(axes::mean_delay).collect::<Result<Vec<_>, _>>()?;
     let unit = means[0].1;
@@ -113,21 +107,17 @@ fn check_fig2(cfgs: &[RunConfig], spec: &FigureSpec) -> Result<(), ReportError> 
 }
 
 /// A figure spec as its checks name it: the edited file in `--specs`, or the built-in one.
-fn spec(o: &PaperOptions, name: &str, figure: &'static str) -> FigureSpec {
-    FigureSpec { file: paper::spec_source(o.specs.as_deref(), name), figure, one_value: check::ONE_VALUE }
+fn spec(ctx: &Studies<'_>, name: &str, figure: &'static str) -> FigureSpec {
+    FigureSpec { file: ctx.source(name), figure, one_value: check::ONE_VALUE }
 }
 
-pub(super) fn fig3(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let cfgs = paper::fig3_configs(o)?;
-    let spec = spec(o, "paper-fig3", "Fig. 3");
+pub(super) fn fig3(ctx: &Studies<'_>, rep: &mut Doc) -> Result<(), ReportError> {
+    let file = ctx.spec("paper-fig3")?;
+    let cfgs = study::configs(&file);
+    let spec = spec(ctx, "paper-fig3", "Fig. 3");
     spec.varies_only(&cfgs, &["world"])?;
     spec.distinct("world", &cfgs.iter().map(|c| format!("world {}", c.world.display())).collect::<Vec<_>>())?;
-    let groups = run(cfgs, "fig 3", stop, prog)?;
+    let Some(groups) = ctx.run("paper-fig3", &file, "fig 3")? else { return Ok(()) };
     let Some(first) = groups.first() else { return Ok(()) };
     let names = axes::world_labels(&groups)?;
     // The paper's setting (Q-learning under Poisson(5) on its worlds); the reference's
@@ -206,15 +196,10 @@ pub(super) fn fig3(
     rep.csv("fig3.csv", &super::curve_csv("world", &rows))
 }
 
-pub(super) fn fig4(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let cfgs = paper::fig4_configs(o)?;
-    check_fig4(&cfgs, &spec(o, "paper-fig4", "Fig. 4"))?;
-    let groups = run(cfgs, "fig 4", stop, prog)?;
+pub(super) fn fig4(ctx: &Studies<'_>, rep: &mut Doc) -> Result<(), ReportError> {
+    let file = ctx.spec("paper-fig4")?;
+    check_fig4(&study::configs(&file), &spec(ctx, "paper-fig4", "Fig. 4"))?;
+    let Some(groups) = ctx.run("paper-fig4", &file, "fig 4")? else { return Ok(()) };
     let Some(first) = groups.first() else { return Ok(()) };
     let lambda = axes::mean_delay(first)?.0;
     // i = λ̂ − λ, with λ the delay's mean rounded to a whole step (λ̂ counts steps);

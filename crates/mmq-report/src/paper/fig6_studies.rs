@@ -3,35 +3,37 @@
 //! the paper's values beside them are read from their specs (with Fig. 6's).
 
 use std::fmt::Write as _;
-use std::sync::atomic::AtomicBool;
 
 use crate::format::mean_pct as pct;
-use mmq_lab::paper::{self, PaperOptions};
+use mmq_lab::study;
 use mmq_learn::LearnerKind;
 use mmq_plot::{LineChart, RefLine};
 
 use super::check::{self, FigureSpec};
 use super::theirs::{self, Theirs};
-use super::{differs, num, run, series};
-use crate::{Doc, Progress, ReportError, axes};
+use super::{Studies, differs, num, series};
+use crate::{Doc, ReportError, axes};
 
-pub(super) fn sensitivity(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let cfgs = paper::sensitivity_configs(o)?;
-    let file = format!(
-        "{} (with {})",
-        paper::spec_source(o.specs.as_deref(), "paper-sensitivity"),
-        paper::spec_source(o.specs.as_deref(), "paper-fig6")
-    );
+/// The sensitivity table: the sensitivity spec's settings and Fig. 6's (grid), from the
+/// most exploring setting to Fig. 6's (q0 rising, ε falling), each learner in its spec's
+/// order.
+pub(super) fn sensitivity(ctx: &Studies<'_>, rep: &mut Doc) -> Result<(), ReportError> {
+    let (own, fig6) = (ctx.spec("paper-sensitivity")?, ctx.spec("paper-fig6")?);
+    let mut cfgs = study::configs(&own);
+    cfgs.extend(study::configs(&fig6));
+    let file = format!("{} (with {})", ctx.source("paper-sensitivity"), ctx.source("paper-fig6"));
     let one_value =
         "one value, the same in both files (the sensitivity table adds Fig. 6's setting to its own)";
     FigureSpec { file, figure: "The sensitivity table", one_value }
         .varies_only(&cfgs, &["epsilon", "q0", "learner"])?;
-    let groups = run(cfgs, "ε, q0", stop, prog)?;
+    let Some(mut groups) = ctx.run("paper-sensitivity", &own, "ε, q0")? else { return Ok(()) };
+    let Some(fig6_groups) = ctx.run("paper-fig6", &fig6, "ε, q0 (fig 6)")? else { return Ok(()) };
+    groups.extend(fig6_groups);
+    // A stable sort: the learners of one setting keep their spec order.
+    groups.sort_by(|a, b| {
+        let (pa, pb) = (a.cfg.learner.params, b.cfg.learner.params);
+        pa.q0.total_cmp(&pb.q0).then(pb.epsilon.total_cmp(&pa.epsilon))
+    });
     let Some(first) = groups.first() else { return Ok(()) };
     let optimum = mmq_core::optimum(&first.cfg.load_world()?).gain;
     let max_delay = groups
@@ -119,15 +121,11 @@ pub(super) fn sensitivity(
 
 /// Relative performance against the horizon: Fig. 6's MMQ setting run for several times
 /// its steps, read at every horizon up to that.
-pub(super) fn horizon(
-    o: &PaperOptions,
-    rep: &mut Doc,
-    stop: &AtomicBool,
-    prog: &dyn Progress,
-) -> Result<(), ReportError> {
-    let cfgs = paper::horizon_configs(o)?;
+pub(super) fn horizon(ctx: &Studies<'_>, rep: &mut Doc) -> Result<(), ReportError> {
+    let file = ctx.spec("paper-horizon")?;
+    let cfgs = study::configs(&file);
     let spec = FigureSpec {
-        file: paper::spec_source(o.specs.as_deref(), "paper-horizon"),
+        file: ctx.source("paper-horizon"),
         figure: "The horizon study",
         one_value: check::ONE_VALUE,
     };
@@ -141,10 +139,12 @@ pub(super) fn horizon(
             ),
         ));
     }
-    let groups = run(cfgs, "horizon", stop, prog)?;
+    let Some(groups) = ctx.run("paper-horizon", &file, "horizon")? else { return Ok(()) };
     let g = &groups[0];
     let curve = g.relative_curve();
-    let factor = g.cfg.steps / o.steps.max(1);
+    // Fig. 6's horizon at this budget: the paper's 150,000 steps as the budget makes them.
+    let fig6_steps = ctx.budget.paper_steps();
+    let factor = g.cfg.steps / fig6_steps.max(1);
     let (size, lambda) = (axes::world_size_of(&g.cfg)?, axes::lambda_words(&g.cfg));
     let who = match g.cfg.learner.kind() {
         LearnerKind::Mmq => "MMQ".to_string(),
@@ -161,11 +161,11 @@ pub(super) fn horizon(
         g.cfg.learner.params.q0,
         g.cfg.seeds,
         factor,
-        o.steps
+        fig6_steps
     );
     let mut t = format!("| horizon (steps) | {who} relative performance |\n|---|---|\n");
     for k in 1..=factor {
-        let at = o.steps * k;
+        let at = fig6_steps * k;
         if let Some((step, m)) = curve.iter().rev().find(|(s, _)| *s <= at) {
             let _ = writeln!(t, "| {step} | {} |", pct(m));
         }
