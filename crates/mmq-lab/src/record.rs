@@ -286,66 +286,7 @@ impl Drop for Scratch {
 pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> Result<Verdict, LabError> {
     let file = log.path.display().to_string();
     let bad = |message: String| LabError::Config { file: file.clone(), message };
-    let cfg_text = log.attachment("config.toml").ok_or_else(|| {
-        bad("the log has no config.toml attachment; it was not written by a recorded run (`record = true`)".into())
-    })?;
-    let mut cfg =
-        RunConfig::from_toml(&String::from_utf8_lossy(&cfg_text.data), &format!("{file}#config.toml"))?;
-    let mut world = log.world().map_err(|e| bad(e.to_string()))?;
-    // The file holds the world as written; the run's `--robot` overrides are in its config.
-    if !cfg.robot.is_empty() {
-        let table = mmq_robot::apply_overrides(world.robot.as_ref(), &cfg.robot)
-            .map_err(|e| bad(format!("its config.toml's robot overrides: {e}")))?;
-        world.robot = Some(table);
-    }
-    let seed: u64 = log
-        .run_fact("seed")
-        .and_then(|s| s.parse().ok())
-        .ok_or_else(|| bad("the log's run metadata has no numeric `seed`".into()))?;
-    if cfg.record.is_none() {
-        return Err(bad("the log's config has no [record] settings".into()));
-    }
-    if cfg.env == EnvKind::Swarm {
-        return Err(bad(
-            "a swarm's recording cannot be verified by a re-run; only a single robot's or grid's can".into(),
-        ));
-    }
-    // The learner's own run is what the log holds; the baseline and tables are not needed.
-    cfg.baseline = false;
-    cfg.save_tables = false;
-    cfg.eval_steps = 0;
-    let dist = cfg.validate()?;
-    // Where the file ends: its "end" record (steps done), or its last recorded decision.
-    let ended: Option<u64> =
-        log.metadata.get("end").and_then(|e| e.get("steps")).and_then(|s| s.parse().ok());
-    let truncated = !log.complete || ended.is_none();
-    let limit = match ended.filter(|_| log.complete) {
-        Some(n) => n,
-        None => log.decisions.last().map_or(0, |d| d.msg.t.saturating_add(1)),
-    };
-    if limit > cfg.steps {
-        return Err(bad(format!(
-            "the file records {limit} steps but its config.toml asks for steps = {}",
-            cfg.steps
-        )));
-    }
-    if limit == 0 {
-        return Err(bad("the file holds no decision step to verify".into()));
-    }
-    // What the file holds, not the configured horizon (an interrupted run of a huge one).
-    if limit > MAX_VERIFY_STEPS {
-        return Err(bad(format!(
-            "the file records {limit} steps; verify re-runs at most {MAX_VERIFY_STEPS} steps \
-             (a damaged or hand-edited file?)"
-        )));
-    }
-    // A damaged chunk in the middle is not a cut end: what follows it cannot be compared.
-    if !log.problems.is_empty() {
-        return Err(bad(format!(
-            "the file is damaged, so it cannot be verified: {}",
-            log.problems.join("; ")
-        )));
-    }
+    let job = Rerun::of(log)?;
     if !scratch.is_dir() {
         return Err(LabError::Io {
             path: scratch.to_path_buf(),
@@ -355,49 +296,154 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> 
             ),
         });
     }
-    let path = scratch.join(format!("verify-seed{seed}-{}.mcap", std::process::id()));
+    let path = scratch.join(format!("verify-seed{}-{}.mcap", job.seed, std::process::id()));
     let _scratch = Scratch(path.clone());
-    // The recorder's window counts from the configured length; the run stops at `limit`.
-    let rec = recorder_config(&cfg, path.clone()).map(open).transpose()?;
-    let stopped = stop.load(Ordering::Relaxed);
-    let halt = std::sync::Arc::new(AtomicBool::new(stopped));
-    let user_stop = std::sync::Arc::new(AtomicBool::new(stopped));
-    let observer = rec.map(|rec| {
-        Box::new(Halting { rec, limit, halt: halt.clone(), stop: user_stop.clone() })
-            as Box<dyn Observer + Send>
-    });
-    let ctl = crate::runner::Control { stop: &halt, progress: &|_| {} };
-    let done = AtomicBool::new(false);
-    let result = std::thread::scope(|s| {
-        // The caller's stop flag, passed on to the re-run (whose observer needs its own).
-        s.spawn(|| {
-            while !done.load(Ordering::Relaxed) {
-                if stop.load(Ordering::Relaxed) {
-                    user_stop.store(true, Ordering::Relaxed);
-                    halt.store(true, Ordering::Relaxed);
-                    break;
-                }
-                std::thread::sleep(std::time::Duration::from_millis(20));
-            }
-        });
-        let r =
-            crate::runner::run_seed(&cfg, &world, &dist, seed, observer, ctl, crate::runner::memory_limit(1));
-        done.store(true, Ordering::Relaxed);
-        r
-    })?;
-    if stop.load(Ordering::Relaxed) || user_stop.load(Ordering::Relaxed) {
-        return Ok(Verdict::Interrupted { steps: result.run.steps_done });
-    }
+    let steps = match job.run(&path, stop)? {
+        Ran::Done(steps) => steps,
+        Ran::Stopped(steps) => return Ok(Verdict::Interrupted { steps }),
+    };
     let again = mmq_log::read_log(&path).map_err(|e| bad(e.to_string()))?;
     let compared =
-        if truncated { mmq_log::compare_prefix(log, &again) } else { mmq_log::compare(log, &again) };
+        if job.truncated { mmq_log::compare_prefix(log, &again) } else { mmq_log::compare(log, &again) };
     Ok(match compared {
         Ok(()) => Verdict::Identical {
             decisions: log.decisions.len(),
             poses: log.poses.len(),
-            steps: result.run.steps_done,
-            truncated,
+            steps,
+            truncated: job.truncated,
         },
         Err(m) => Verdict::Differs(m),
     })
+}
+
+/// What a log asks to re-run: its run (baseline, tables and evaluation off: the log
+/// holds the learner's own run), world, seed, how many steps it holds, and whether it
+/// ends before its run did.
+struct Rerun {
+    cfg: RunConfig,
+    world: mmq_core::World,
+    dist: mmq_core::DelayDist,
+    seed: u64,
+    limit: u64,
+    truncated: bool,
+}
+
+impl Rerun {
+    /// The re-run a log describes, or why it cannot be verified.
+    fn of(log: &mmq_log::LogContents) -> Result<Rerun, LabError> {
+        let file = log.path.display().to_string();
+        let bad = |message: String| LabError::Config { file: file.clone(), message };
+        let cfg_text = log.attachment("config.toml").ok_or_else(|| {
+            bad("the log has no config.toml attachment; it was not written by a recorded run (`record = true`)"
+                .into())
+        })?;
+        let mut cfg =
+            RunConfig::from_toml(&String::from_utf8_lossy(&cfg_text.data), &format!("{file}#config.toml"))?;
+        let mut world = log.world().map_err(|e| bad(e.to_string()))?;
+        // The file holds the world as written; the run's `--robot` overrides are in its config.
+        if !cfg.robot.is_empty() {
+            let table = mmq_robot::apply_overrides(world.robot.as_ref(), &cfg.robot)
+                .map_err(|e| bad(format!("its config.toml's robot overrides: {e}")))?;
+            world.robot = Some(table);
+        }
+        let seed: u64 = log
+            .run_fact("seed")
+            .and_then(|s| s.parse().ok())
+            .ok_or_else(|| bad("the log's run metadata has no numeric `seed`".into()))?;
+        if cfg.record.is_none() {
+            return Err(bad("the log's config has no [record] settings".into()));
+        }
+        if cfg.env == EnvKind::Swarm {
+            return Err(bad(
+                "a swarm's recording cannot be verified by a re-run; only a single robot's or grid's can"
+                    .into(),
+            ));
+        }
+        cfg.baseline = false;
+        cfg.save_tables = false;
+        cfg.eval_steps = 0;
+        let dist = cfg.validate()?;
+        // Where the file ends: its "end" record (steps done), or its last recorded decision.
+        let ended: Option<u64> =
+            log.metadata.get("end").and_then(|e| e.get("steps")).and_then(|s| s.parse().ok());
+        let truncated = !log.complete || ended.is_none();
+        let limit = match ended.filter(|_| log.complete) {
+            Some(n) => n,
+            None => log.decisions.last().map_or(0, |d| d.msg.t.saturating_add(1)),
+        };
+        if limit > cfg.steps {
+            return Err(bad(format!(
+                "the file records {limit} steps but its config.toml asks for steps = {}",
+                cfg.steps
+            )));
+        }
+        if limit == 0 {
+            return Err(bad("the file holds no decision step to verify".into()));
+        }
+        // What the file holds, not the configured horizon (an interrupted run of a huge one).
+        if limit > MAX_VERIFY_STEPS {
+            return Err(bad(format!(
+                "the file records {limit} steps; verify re-runs at most {MAX_VERIFY_STEPS} steps \
+                 (a damaged or hand-edited file?)"
+            )));
+        }
+        // A damaged chunk in the middle is not a cut end: what follows it cannot be compared.
+        if !log.problems.is_empty() {
+            return Err(bad(format!(
+                "the file is damaged, so it cannot be verified: {}",
+                log.problems.join("; ")
+            )));
+        }
+        Ok(Rerun { cfg, world, dist, seed, limit, truncated })
+    }
+
+    /// Runs again, recording into `path`, until the file's last step or `stop`.
+    fn run(&self, path: &Path, stop: &AtomicBool) -> Result<Ran, LabError> {
+        // The recorder's window counts from the configured length; the run stops at `limit`.
+        let rec = recorder_config(&self.cfg, path.to_path_buf()).map(open).transpose()?;
+        let stopped = stop.load(Ordering::Relaxed);
+        let halt = std::sync::Arc::new(AtomicBool::new(stopped));
+        let user_stop = std::sync::Arc::new(AtomicBool::new(stopped));
+        let limit = self.limit;
+        let observer = rec.map(|rec| {
+            Box::new(Halting { rec, limit, halt: halt.clone(), stop: user_stop.clone() })
+                as Box<dyn Observer + Send>
+        });
+        let ctl = crate::runner::Control { stop: &halt, progress: &|_| {} };
+        let done = AtomicBool::new(false);
+        let result = std::thread::scope(|s| {
+            // The caller's stop flag, passed on to the re-run (whose observer needs its own).
+            s.spawn(|| {
+                while !done.load(Ordering::Relaxed) {
+                    if stop.load(Ordering::Relaxed) {
+                        user_stop.store(true, Ordering::Relaxed);
+                        halt.store(true, Ordering::Relaxed);
+                        break;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(20));
+                }
+            });
+            let (cfg, world, dist) = (&self.cfg, &self.world, &self.dist);
+            let r = crate::runner::run_seed(
+                cfg,
+                world,
+                dist,
+                self.seed,
+                observer,
+                ctl,
+                crate::runner::memory_limit(1),
+            );
+            done.store(true, Ordering::Relaxed);
+            r
+        })?;
+        let steps = result.run.steps_done;
+        let stopped = stop.load(Ordering::Relaxed) || user_stop.load(Ordering::Relaxed);
+        Ok(if stopped { Ran::Stopped(steps) } else { Ran::Done(steps) })
+    }
+}
+
+/// How a re-run ended: its steps done, all it was to run or cut short by the stop flag.
+enum Ran {
+    Done(u64),
+    Stopped(u64),
 }
