@@ -1,11 +1,11 @@
-//! `mmq run`: flags → validated `RunConfig` → the run (`mmq_report::run`: config.toml,
+//! `mmq run`: flags → a resolved run (`mmq_lab::Resolved`) → the run (`mmq_report::run`: config.toml,
 //! seeds in parallel, summary.json, metrics.csv, policy.csv, Q-tables; a short table on
 //! stdout).
 
 use std::sync::atomic::AtomicBool;
 
-use mmq_lab::RunConfig;
 use mmq_lab::config::{EnvKind, RecordSettings};
+use mmq_lab::{Resolved, RunConfig};
 use mmq_learn::spec::Params;
 use mmq_report::live::LiveOptions;
 
@@ -13,8 +13,9 @@ use crate::Failure;
 use crate::cli::RunArgs;
 use crate::progress::Bars;
 
-/// Stage two of the flags: a validated configuration.
-pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
+/// Stage two of the flags: the configuration resolved (world loaded, delay parsed,
+/// everything a run refuses checked).
+pub fn resolve(a: &RunArgs) -> Result<Resolved, Failure> {
     // Only the settings given are set; one the learner does not have, or one given twice,
     // is an error.
     let int = |x: usize| toml::Value::Integer(x.min(i64::MAX as usize) as i64);
@@ -46,8 +47,7 @@ pub fn resolve(a: &RunArgs) -> Result<RunConfig, Failure> {
         robot: a.robot.clone(),
         swarm: a.swarm.clone(),
     };
-    cfg.validate()?;
-    Ok(cfg)
+    Ok(Resolved::new(cfg)?)
 }
 
 /// The `--set KEY=VALUE` flags: each value as TOML (a number, a boolean, a quoted

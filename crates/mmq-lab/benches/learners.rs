@@ -45,7 +45,7 @@ fn bench(c: &mut Criterion) {
         let s = seed(kind, STEPS);
         g.bench_function(kind.name(), |b| b.iter(|| s.run()));
     }
-    let w = seed(LearnerKind::Q, STEPS).world;
+    let w = seed(LearnerKind::Q, STEPS).run.world().clone();
     g.bench_function("channel-only", |b| {
         b.iter(|| {
             let mut ch = DelayedReward::new(GridEnv::new(&w), &DelayDist::Poisson(13.0), false);

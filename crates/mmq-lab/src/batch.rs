@@ -3,7 +3,7 @@
 //! seed's step `t`, then every seed's step `t + 1`. Each seed keeps its own environment,
 //! delays and streams and runs through the runner's own step loop
 //! ([`crate::stepper`]), so its trajectory, evaluation and metrics are those the same
-//! decisions would give one seed at a time ([`crate::runner::run_seed`]).
+//! decisions would give one seed at a time ([`crate::run_seed`]).
 //!
 //! The learner sees the batch as [`Seat`]s, one per seed in the order given: it reads
 //! their states and writes their actions ([`BatchLearner::act`],
@@ -13,7 +13,7 @@
 
 use std::time::Instant;
 
-use mmq_core::{Action, DelayDist, Env, Rng, SeedTree, State, Telemetry, World};
+use mmq_core::{Action, DelayDist, Env, Rng, SeedTree, State, Telemetry};
 use mmq_grid::GridEnv;
 use mmq_learn::{Decision, Experience, Learner, Table};
 
@@ -104,18 +104,17 @@ impl Learner for SeatLearner<'_> {
 
 /// Runs the seeds `seeds` of `cfg` in lockstep with the batched learner `factory`
 /// builds: learning, the greedy evaluation (of the seeds whose learning ran to its end),
-/// then each seed's end as [`crate::runner::run_seed`] does it (its own baseline when the
+/// then each seed's end as [`crate::run_seed`] does it (its own baseline when the
 /// configuration asks for one). Results in the order of `seeds`; the times of a seed are
 /// its batch's. A seed cut short by the stop flag is returned incomplete.
 pub fn run_batch(
-    cfg: &RunConfig,
-    world: &World,
-    dist: &DelayDist,
+    run: &crate::Resolved,
     seeds: &[u64],
     factory: &BatchFactory<'_>,
     ctl: Control<'_>,
     mem_limit: u128,
 ) -> Result<Vec<SeedResult>, LabError> {
+    let (cfg, world, dist) = (run.cfg(), run.world(), run.dist());
     match cfg.env {
         EnvKind::Grid => run_batch_on(cfg, dist, seeds, factory, ctl, mem_limit, &|| Ok(GridEnv::new(world))),
         EnvKind::Robot => run_batch_on(cfg, dist, seeds, factory, ctl, mem_limit, &|| robot_env(world)),
@@ -228,7 +227,7 @@ mod tests {
     use mmq_learn::{LearnerKind, LearnerSpec};
 
     use super::*;
-    use crate::runner::run_seed;
+    use crate::run_seed;
 
     /// One built-in learner per seat, each with its seed's exploration and evaluation
     /// streams (those the runner hands a learner of one seed); fails seat `fail.0` after
@@ -288,7 +287,6 @@ mod tests {
     }
 
     fn batch(cfg: &RunConfig, seeds: &[u64], fail: Option<(usize, u64)>) -> Vec<SeedResult> {
-        let (world, dist) = (cfg.load_world().unwrap(), cfg.validate().unwrap());
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
         let factory = |n_s: usize, n_a: usize, seeds: &[u64]| {
@@ -301,7 +299,7 @@ mod tests {
                 calls: 0,
             }) as Box<dyn BatchLearner>)
         };
-        run_batch(cfg, &world, &dist, seeds, &factory, ctl, u128::MAX).unwrap()
+        run_batch(&crate::Resolved::new(cfg.clone()).unwrap(), seeds, &factory, ctl, u128::MAX).unwrap()
     }
 
     fn same(a: &SeedResult, b: &SeedResult) {
@@ -332,14 +330,14 @@ mod tests {
     fn a_batch_gives_every_seed_its_run_alone() {
         for baseline in [false, true] {
             let cfg = RunConfig { baseline, ..cfg() };
-            let (world, dist) = (cfg.load_world().unwrap(), cfg.validate().unwrap());
+            let run = crate::Resolved::new(cfg.clone()).unwrap();
             let stop = AtomicBool::new(false);
             let ctl = Control { stop: &stop, progress: &|_| {} };
             let seeds = [4, 0, 9];
             let got = batch(&cfg, &seeds, None);
             assert_eq!(got.len(), 3);
             for (r, &seed) in got.iter().zip(&seeds) {
-                let alone = run_seed(&cfg, &world, &dist, seed, None, ctl, u128::MAX).unwrap();
+                let alone = run_seed(&run, seed, None, ctl, u128::MAX).unwrap();
                 let what = (alone.complete, alone.run.earned_total, alone.greedy_per_step);
                 assert!(what.0 && what.1 != 0.0 && what.2.is_finite(), "{what:?}");
                 assert_eq!(alone.baseline.is_some(), baseline);
@@ -365,8 +363,7 @@ mod tests {
     /// The stop flag ends every seat; an empty batch builds no learner.
     #[test]
     fn a_stopped_batch_is_incomplete_and_an_empty_one_is_nothing() {
-        let cfg = cfg();
-        let (world, dist) = (cfg.load_world().unwrap(), cfg.validate().unwrap());
+        let run = crate::Resolved::new(cfg()).unwrap();
         let stop = AtomicBool::new(true);
         let ctl = Control { stop: &stop, progress: &|_| {} };
         let factory = |_: usize, _: usize, seeds: &[u64]| {
@@ -379,8 +376,8 @@ mod tests {
                 calls: 0,
             }) as Box<dyn BatchLearner>)
         };
-        let r = run_batch(&cfg, &world, &dist, &[0, 1], &factory, ctl, u128::MAX).unwrap();
+        let r = run_batch(&run, &[0, 1], &factory, ctl, u128::MAX).unwrap();
         assert!(r.iter().all(|r| !r.complete && r.run.steps_done == 0 && r.failure.is_none()));
-        assert!(run_batch(&cfg, &world, &dist, &[], &factory, ctl, u128::MAX).unwrap().is_empty());
+        assert!(run_batch(&run, &[], &factory, ctl, u128::MAX).unwrap().is_empty());
     }
 }

@@ -10,25 +10,22 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
-use mmq_core::{DelayDist, World};
 use rayon::prelude::*;
 
 use crate::config::{EnvKind, RunConfig};
 use crate::error::LabError;
-use crate::runner::{check_run, check_tables_fit, memory_limit, run_seed, run_seed_as};
+use crate::resolved::Resolved;
+use crate::resolved::run_seed;
+use crate::runner::{check_tables_fit, memory_limit, run_seed_as};
 use crate::trajectory::{Control, LearnerFactory, ObserverFactory, SeedResult, Trajectory};
 
 /// One run to make: a configuration, its world and delay, a master seed and, for a
 /// learner not built from a name, how to build it.
 #[derive(Clone, Copy)]
 pub struct Job<'a> {
-    /// The run's configuration; with `baseline` set the job also gets the undelayed
-    /// Q-learning baseline of the same world, parameters, horizon and seed.
-    pub cfg: &'a RunConfig,
-    /// Its world (robot overrides applied).
-    pub world: &'a World,
-    /// Its validated delay.
-    pub dist: &'a DelayDist,
+    /// The resolved run; with `baseline` set in its configuration the job also gets the
+    /// undelayed Q-learning baseline of the same world, parameters, horizon and seed.
+    pub run: &'a Resolved,
     /// The master seed.
     pub seed: u64,
     /// Builds the job's learner in place of `cfg`'s (None: `cfg`'s learner).
@@ -38,9 +35,9 @@ pub struct Job<'a> {
 impl std::fmt::Debug for Job<'_> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Job")
-            .field("cfg", self.cfg)
-            .field("world", &self.world.name)
-            .field("dist", self.dist)
+            .field("cfg", self.run.cfg())
+            .field("world", &self.run.world().name)
+            .field("dist", self.run.dist())
             .field("seed", &self.seed)
             .field("learner", &self.learner.map(|_| "given"))
             .finish()
@@ -89,8 +86,8 @@ pub fn baseline_config(cfg: &RunConfig) -> RunConfig {
 pub fn baselines_needed(jobs: &[Job<'_>]) -> Vec<(BaselineKey, u64)> {
     let mut seen = HashSet::new();
     jobs.iter()
-        .filter(|j| j.cfg.baseline)
-        .map(|j| (BaselineKey::of(j.cfg, j.seed), j.cfg.steps))
+        .filter(|j| j.run.cfg().baseline)
+        .map(|j| (BaselineKey::of(j.run.cfg(), j.seed), j.run.cfg().steps))
         .filter(|(k, _)| seen.insert(k.clone()))
         .collect()
 }
@@ -156,14 +153,14 @@ pub fn run_jobs_observed(
     // learner built by a factory is its own business).
     let mut checked = HashSet::new();
     for j in jobs.iter().filter(|j| j.learner.is_none()) {
-        if checked.insert(std::ptr::from_ref(j.cfg)) {
-            check_tables_fit(j.cfg, j.world, limit)?;
+        if checked.insert(std::ptr::from_ref(j.run)) {
+            check_tables_fit(j.run.cfg(), j.run.world(), limit)?;
         }
     }
     let mut shared: HashMap<BaselineKey, Shared> = HashMap::new();
-    for j in jobs.iter().filter(|j| j.cfg.baseline) {
+    for j in jobs.iter().filter(|j| j.run.cfg().baseline) {
         let s = shared
-            .entry(BaselineKey::of(j.cfg, j.seed))
+            .entry(BaselineKey::of(j.run.cfg(), j.seed))
             .or_insert_with(|| Shared { users: AtomicUsize::new(0), slot: Mutex::new(Slot::Pending) });
         s.users.fetch_add(1, Ordering::Relaxed);
     }
@@ -183,11 +180,10 @@ pub fn run_jobs_observed(
     // that ask meanwhile, dropped after its last user (a job that does not want it any
     // more, its own run cut short, only lets go of it).
     let baseline_of = |j: &Job<'_>, want: bool| -> Option<Arc<(Trajectory, f64)>> {
-        let s = &shared[&BaselineKey::of(j.cfg, j.seed)];
+        let s = &shared[&BaselineKey::of(j.run.cfg(), j.seed)];
         let mut slot = s.slot.lock().unwrap_or_else(|p| p.into_inner());
         if want && matches!(*slot, Slot::Pending) {
-            let cfg = baseline_config(j.cfg);
-            *slot = match run_seed(&cfg, j.world, &DelayDist::None, j.seed, None, ctl, limit) {
+            *slot = match run_seed(&j.run.baseline(), j.seed, None, ctl, limit) {
                 Ok(r) if r.complete => Slot::Ready(Arc::new((r.run, r.greedy_per_step))),
                 Ok(_) => Slot::Gone,
                 Err(e) => {
@@ -214,17 +210,17 @@ pub fn run_jobs_observed(
             Ok(o) => o.flatten(),
             Err(e) => return fail(e),
         };
-        let mut r = match run_seed_as(j.cfg, j.world, j.dist, j.seed, observer, ctl, limit, false, j.learner)
-        {
+        let (cfg, world, dist) = (j.run.cfg(), j.run.world(), j.run.dist());
+        let mut r = match run_seed_as(cfg, world, dist, j.seed, observer, ctl, limit, false, j.learner) {
             Ok(r) => r,
             Err(e) => {
-                if j.cfg.baseline {
+                if cfg.baseline {
                     baseline_of(j, false);
                 }
                 return fail(e);
             }
         };
-        if j.cfg.baseline {
+        if cfg.baseline {
             match baseline_of(j, r.complete) {
                 Some(b) => {
                     r.baseline = Some(b.0.clone());
@@ -274,27 +270,14 @@ impl RunOutcome {
     }
 }
 
-/// Runs every seed of `cfg` in parallel (rayon), results in seed order.
+/// Runs every seed of `run` in parallel (rayon), results in seed order.
 pub fn run_all(
-    cfg: &RunConfig,
-    world: &World,
+    run: &Resolved,
     observers: &ObserverFactory<'_>,
     ctl: Control<'_>,
 ) -> Result<RunOutcome, LabError> {
-    run_checked(cfg, world, &check_run(cfg, world)?, observers, ctl)
-}
-
-/// [`run_all`] of a configuration [`check_run`] passed, with the delay it parsed.
-pub(crate) fn run_checked(
-    cfg: &RunConfig,
-    world: &World,
-    dist: &DelayDist,
-    observers: &ObserverFactory<'_>,
-    ctl: Control<'_>,
-) -> Result<RunOutcome, LabError> {
-    let seeds = cfg.seed_list();
-    let jobs: Vec<Job<'_>> =
-        seeds.iter().map(|&seed| Job { cfg, world, dist, seed, learner: None }).collect();
+    let seeds = run.cfg().seed_list();
+    let jobs: Vec<Job<'_>> = seeds.iter().map(|&seed| Job { run, seed, learner: None }).collect();
     let out: Vec<SeedResult> =
         run_jobs_in_order(&jobs, Some(observers), ctl)?.into_iter().flatten().collect();
     let interrupted = ctl.stop.load(Ordering::Relaxed) || out.iter().any(|r| !r.complete);
@@ -354,21 +337,17 @@ mod tests {
 
     #[test]
     fn jobs_get_the_baseline_run_seed_computes_and_share_it() {
-        let c = cfg();
-        let world = c.load_world().unwrap();
-        let dist = c.validate().unwrap();
+        let c = Resolved::new(cfg()).unwrap();
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
-        let mut other = c.clone();
+        let mut other = c.cfg().clone();
         other.learner.settings = mmq_learn::LearnerSettings::of(mmq_learn::LearnerKind::Mmq);
-        let jobs = [
-            Job { cfg: &c, world: &world, dist: &dist, seed: 5, learner: None },
-            Job { cfg: &other, world: &world, dist: &dist, seed: 5, learner: None },
-        ];
+        let other = Resolved::new(other).unwrap();
+        let jobs = [Job { run: &c, seed: 5, learner: None }, Job { run: &other, seed: 5, learner: None }];
         assert_eq!(baselines_needed(&jobs).len(), 1);
         let got = run_jobs_in_order(&jobs, None, ctl).unwrap();
         // run_seed with the baseline flag runs the same baseline itself.
-        let own = run_seed(&c, &world, &dist, 5, None, ctl, 1 << 30).unwrap();
+        let own = run_seed(&c, 5, None, ctl, 1 << 30).unwrap();
         let own_base = own.baseline.as_ref().unwrap();
         for r in got.iter().map(|r| r.as_ref().unwrap()) {
             let b = r.baseline.as_ref().unwrap();
@@ -384,12 +363,10 @@ mod tests {
 
     #[test]
     fn an_error_of_done_is_returned() {
-        let c = RunConfig { baseline: false, ..cfg() };
-        let world = c.load_world().unwrap();
-        let dist = c.validate().unwrap();
+        let c = Resolved::new(RunConfig { baseline: false, ..cfg() }).unwrap();
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
-        let jobs = [Job { cfg: &c, world: &world, dist: &dist, seed: 0, learner: None }];
+        let jobs = [Job { run: &c, seed: 0, learner: None }];
         let e = run_jobs(&jobs, ctl, &|_, _| Err(LabError::EnvBuild("cannot keep it".into())));
         assert!(e.unwrap_err().to_string().contains("cannot keep it"));
     }

@@ -284,19 +284,18 @@ impl RunWritten {
 /// last, and gives the lock back.
 pub fn run_into(
     dir: &Path,
-    cfg: &RunConfig,
-    world: &World,
+    run: &crate::Resolved,
     observers: &crate::runner::ObserverFactory<'_>,
     ctl: crate::runner::Control<'_>,
     claimed: &dyn Fn(usize),
 ) -> Result<RunWritten, LabError> {
-    // What the run would refuse (a robot configuration, tables that do not fit) is refused
-    // before the folder is touched.
-    let dist = crate::runner::check_run(cfg, world)?;
+    // What the run would refuse (a robot configuration, tables that do not fit) was
+    // refused when it was resolved, before the folder is touched.
+    let (cfg, world) = (run.cfg(), run.world());
     let _lock = crate::lock::lock_out_dir(dir)?;
     claimed(claim_out_dir(dir, OutKind::Run)?);
     write_config(dir, cfg)?;
-    let outcome = crate::exec::run_checked(cfg, world, &dist, observers, ctl)?;
+    let outcome = crate::exec::run_all(run, observers, ctl)?;
     let lost = outcome.failures().into_iter().map(str::to_string).collect();
     let stopped = || ctl.stop.load(std::sync::atomic::Ordering::Relaxed);
     let (summary, _) = write_results(dir, cfg, world, &outcome.results, !outcome.interrupted, &stopped)?;

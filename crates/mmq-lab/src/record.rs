@@ -162,14 +162,13 @@ pub fn observers<'a>(
 /// ends, its last messages sent.
 pub fn run_recorded(
     out: &Path,
-    cfg: &RunConfig,
-    world: &mmq_core::World,
+    run: &crate::Resolved,
     live: Option<LiveRun>,
     ctl: crate::runner::Control<'_>,
     claimed: &dyn Fn(usize),
 ) -> Result<crate::output::RunWritten, LabError> {
     // The observers (the live tap among them) finish before the server stops.
-    let written = crate::output::run_into(out, cfg, world, &observers(cfg, out, live.as_ref()), ctl, claimed);
+    let written = crate::output::run_into(out, run, &observers(run.cfg(), out, live.as_ref()), ctl, claimed);
     if let Some(l) = live {
         l.stop();
     }
@@ -320,9 +319,7 @@ pub fn verify(log: &mmq_log::LogContents, scratch: &Path, stop: &AtomicBool) -> 
 /// holds the learner's own run), world, seed, how many steps it holds, and whether it
 /// ends before its run did.
 struct Rerun {
-    cfg: RunConfig,
-    world: mmq_core::World,
-    dist: mmq_core::DelayDist,
+    run: crate::Resolved,
     seed: u64,
     limit: u64,
     truncated: bool,
@@ -362,7 +359,8 @@ impl Rerun {
         cfg.baseline = false;
         cfg.save_tables = false;
         cfg.eval_steps = 0;
-        let dist = cfg.validate()?;
+        let run = crate::Resolved::with_world(cfg, world)?;
+        let cfg = run.cfg();
         // Where the file ends: its "end" record (steps done), or its last recorded decision.
         let ended: Option<u64> =
             log.metadata.get("end").and_then(|e| e.get("steps")).and_then(|s| s.parse().ok());
@@ -394,13 +392,13 @@ impl Rerun {
                 log.problems.join("; ")
             )));
         }
-        Ok(Rerun { cfg, world, dist, seed, limit, truncated })
+        Ok(Rerun { run, seed, limit, truncated })
     }
 
     /// Runs again, recording into `path`, until the file's last step or `stop`.
     fn run(&self, path: &Path, stop: &AtomicBool) -> Result<Ran, LabError> {
         // The recorder's window counts from the configured length; the run stops at `limit`.
-        let rec = recorder_config(&self.cfg, path.to_path_buf()).map(open).transpose()?;
+        let rec = recorder_config(self.run.cfg(), path.to_path_buf()).map(open).transpose()?;
         let stopped = stop.load(Ordering::Relaxed);
         let halt = std::sync::Arc::new(AtomicBool::new(stopped));
         let user_stop = std::sync::Arc::new(AtomicBool::new(stopped));
@@ -423,11 +421,8 @@ impl Rerun {
                     std::thread::sleep(std::time::Duration::from_millis(20));
                 }
             });
-            let (cfg, world, dist) = (&self.cfg, &self.world, &self.dist);
-            let r = crate::runner::run_seed(
-                cfg,
-                world,
-                dist,
+            let r = crate::resolved::run_seed(
+                &self.run,
                 self.seed,
                 observer,
                 ctl,

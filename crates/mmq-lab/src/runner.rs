@@ -93,20 +93,6 @@ pub fn check_tables_fit(cfg: &RunConfig, world: &World, limit: u128) -> Result<u
     Ok(bytes)
 }
 
-/// Runs one seed: learning under delay, greedy evaluation, then the baseline (when the
-/// configuration asks for one).
-pub fn run_seed(
-    cfg: &RunConfig,
-    world: &World,
-    dist: &DelayDist,
-    seed: u64,
-    observer: Option<Box<dyn Observer + Send>>,
-    ctl: Control<'_>,
-    mem_limit: u128,
-) -> Result<SeedResult, LabError> {
-    run_seed_as(cfg, world, dist, seed, observer, ctl, mem_limit, cfg.baseline, None)
-}
-
 /// [`run_seed`] that runs the baseline only if `own_baseline` (the executor shares
 /// baselines between jobs and attaches them itself), with the learner of `learner` when
 /// given; the configuration is recorded as given either way.
@@ -345,11 +331,10 @@ pub fn memory_limit(parallel: usize) -> u128 {
     avail / 2 / parallel.max(1) as u128
 }
 
-/// Everything [`run_all`](crate::exec::run_all) refuses before it allocates or runs anything: the
-/// configuration, the robot's (the arena is built once), and the memory the seeds'
-/// tables need. Callers that write outputs check it before touching the output folder.
-pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> {
-    let dist = cfg.validate()?;
+/// What a run of a validated configuration refuses before it allocates or runs
+/// anything: the robot's or swarm's arena (built once) and the memory of the seeds'
+/// tables ([`crate::Resolved`] checks it once).
+pub(crate) fn check_fits(cfg: &RunConfig, world: &World) -> Result<(), LabError> {
     match cfg.env {
         EnvKind::Grid => {}
         EnvKind::Robot => {
@@ -383,7 +368,7 @@ pub fn check_run(cfg: &RunConfig, world: &World) -> Result<DelayDist, LabError> 
             ));
         }
     }
-    Ok(dist)
+    Ok(())
 }
 
 /// The exact optimum of the world (re-exported for summaries).
@@ -446,7 +431,7 @@ mod tests {
             let learner =
                 mmq_learn::LearnerSpec { params: cfg.learner.params, ..mmq_learn::LearnerSpec::new(kind) };
             let c = RunConfig { steps, learner, ..cfg.clone() };
-            run_seed(&c, &world, &dist, 3, None, ctl, u128::MAX).unwrap()
+            run_seed_as(&c, &world, &dist, 3, None, ctl, u128::MAX, false, None).unwrap()
         };
         for kind in [mmq_learn::LearnerKind::Mmq, mmq_learn::LearnerKind::DeconvModel] {
             let long = run(kind, cfg.steps);
@@ -490,17 +475,17 @@ mod tests {
                 save_tables: false,
                 ..RunConfig::default()
             };
-            let (w, dist) = (cfg.load_world().unwrap(), cfg.validate().unwrap());
-            let r = run_seed(&cfg, &w, &dist, 5, None, ctl, u128::MAX).unwrap();
+            let (w, dist) = (&cfg.load_world().unwrap(), cfg.validate().unwrap());
+            let r = run_seed_as(&cfg, w, &dist, 5, None, ctl, u128::MAX, true, None).unwrap();
             let reference = r.reference.clone().expect("asked for");
-            let optimum = optimum_of(&w);
+            let optimum = optimum_of(w);
             let eps = cfg.learner.params.epsilon;
             let factory = |ns: usize, na: usize, _seed: u64| {
                 Ok(Box::new(GridOptimal::new(&optimum, eps, ns, na, "w")?) as Box<dyn Learner>)
             };
             let plain = RunConfig { reference: false, ..cfg.clone() };
             let agent =
-                run_seed_as(&plain, &w, &dist, 5, None, ctl, u128::MAX, false, Some(&factory)).unwrap();
+                run_seed_as(&plain, w, &dist, 5, None, ctl, u128::MAX, false, Some(&factory)).unwrap();
             assert_eq!(reference.earned_total, agent.run.earned_total, "{env:?}");
             // It earns the same (what it receives depends on the delay it runs under).
             let earned = |c: &[CurveRow]| c.iter().map(|r| (r.step, r.earned)).collect::<Vec<_>>();

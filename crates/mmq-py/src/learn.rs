@@ -7,7 +7,7 @@ use std::sync::{Mutex, MutexGuard, PoisonError};
 
 use mmq_core::{Rng, SeedTree, Stream};
 use mmq_lab::config::{EnvKind, RecordSettings};
-use mmq_lab::{Control, RunConfig, run_all};
+use mmq_lab::{Control, Resolved, RunConfig, run_all};
 use mmq_learn::{Experience, LearnerKind, LearnerSpec};
 use numpy::PyArray1;
 use pyo3::prelude::*;
@@ -283,23 +283,25 @@ pub fn run_json(
             pyo3::exceptions::PyRuntimeError::new_err(e.to_string())
         }
     };
-    cfg.validate().map_err(lab_err)?;
     if env == EnvKind::Robot {
         crate::config::robot_env(&w, &crate::config::Edits::of(preset, profile, overrides))?;
     }
+    // Resolved once: the world as edited, the delay parsed, what the run refuses checked.
+    let run = Resolved::with_world(cfg, w).map_err(lab_err)?;
     let summary = py.detach(|| -> Result<String, mmq_lab::LabError> {
         let stop = AtomicBool::new(false);
         let progress = |_: u64| {};
         let ctl = Control { stop: &stop, progress: &progress };
         if let Some(dir) = &out {
-            let written = mmq_lab::record::run_recorded(dir, &cfg, &w, None, ctl, &|_| {})?;
+            let written = mmq_lab::record::run_recorded(dir, &run, None, ctl, &|_| {})?;
             // A seed that lost a file is an error, never a complete run.
             written.check(dir)?;
             Ok(serde_json::to_string(&written.summary).unwrap_or_default())
         } else {
             let none = |_: u64| Ok(None);
-            let outcome = run_all(&cfg, &w, &none, ctl)?;
-            let summary = mmq_lab::Summary::new(&cfg, &w, &outcome.results, !outcome.interrupted);
+            let outcome = run_all(&run, &none, ctl)?;
+            let summary =
+                mmq_lab::Summary::new(run.cfg(), run.world(), &outcome.results, !outcome.interrupted);
             Ok(serde_json::to_string(&summary).unwrap_or_default())
         }
     });

@@ -384,7 +384,7 @@ fn fig6(ctx: &Studies<'_>, env: EnvKind, rep: &mut Doc) -> Result<Option<(Vec<Gr
     let Some(mut groups) = ctx.run(name, &spec_file, &format!("fig 6 {env_name}"))? else { return Ok(None) };
     // MMQ first, then Q-learning, whatever the spec's order.
     groups.sort_by_key(|g| g.cfg.learner.kind() != LearnerKind::Mmq);
-    let world = groups[0].cfg.load_world()?;
+    let world = spec_file.run(groups[0].cell).world().clone();
     let optimum = mmq_core::optimum(&world).gain;
     let (mmq, q) = (&groups[0], &groups[1]);
     let (size, lambda) = (axes::world_size_of(&mmq.cfg)?, axes::lambda_words(&mmq.cfg));
@@ -448,7 +448,7 @@ fn fig6(ctx: &Studies<'_>, env: EnvKind, rep: &mut Doc) -> Result<Option<(Vec<Gr
     let rows: Vec<(String, Vec<(u64, MeanCi)>)> =
         curves.iter().map(|(n, c)| (n.replace(' ', "_"), c.clone())).collect();
     rep.csv(&format!("fig6-rewards{sfx}.csv"), &curve_csv("series", &rows))?;
-    delay_window(mmq, rep, ctx.stop, sfx)?;
+    delay_window(spec_file.run(mmq.cell), mmq, rep, ctx.stop, sfx)?;
     differs(
         rep,
         "the paper's text is ambiguous on two points. Its eq. 3 divides by t as well (a stray 1/t: we report \
@@ -480,10 +480,16 @@ const WINDOW_STEPS: usize = 150;
 
 /// Where the delay shows: per-step earned and received reward over the last steps of the
 /// first MMQ seed (run again with a recorder; the run is the group's, bit for bit).
-fn delay_window(mmq: &Group, rep: &mut Doc, stop: &AtomicBool, sfx: &str) -> Result<(), ReportError> {
+fn delay_window(
+    run: &mmq_lab::Resolved,
+    mmq: &Group,
+    rep: &mut Doc,
+    stop: &AtomicBool,
+    sfx: &str,
+) -> Result<(), ReportError> {
     let Some(first) = mmq.results.first() else { return Ok(()) };
     let ctl = Control { stop, progress: &|_| {} };
-    let steps = study::last_steps(&mmq.cfg, first.seed, WINDOW_STEPS, ctl)?;
+    let steps = study::last_steps(run, first.seed, WINDOW_STEPS, ctl)?;
     if steps.is_empty() {
         return Ok(());
     }

@@ -5,25 +5,25 @@
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 
-use mmq_lab::{Control, RunConfig};
+use mmq_lab::{Control, Resolved};
 
 use crate::live::LiveOptions;
 use crate::{Progress, ReportError};
 
-/// Runs `cfg` into `out`, its first seed served live with `live` when given; says the summary table and `wrote OUT` through `progress`, or a notice when the
+/// Runs `run` into `out`, its first seed served live with `live` when given; says the summary table and `wrote OUT` through `progress`, or a notice when the
 /// stop flag cut the run short. Returns whether it did (the summary then marks the run
 /// partial).
 ///
 /// A seed that lost output it should have written (a recording) is an error after the
 /// summary was said.
 pub fn run(
-    cfg: &RunConfig,
+    run: &Resolved,
     out: &Path,
     live: Option<&LiveOptions>,
     stop: &AtomicBool,
     progress: &dyn Progress,
 ) -> Result<bool, ReportError> {
-    let world = cfg.load_world()?;
+    let cfg = run.cfg();
     let live = live.map(|o| crate::live::start(o, cfg, out, stop, progress)).transpose()?;
     progress.begin(cfg.total_steps(), cfg.learner.kind().name());
     let advance = |n: u64| progress.advance(n);
@@ -34,7 +34,7 @@ pub fn run(
             progress.notice(&format!("{}: replacing the previous run's {replaced} file(s)", out.display()));
         }
     };
-    let written = mmq_lab::record::run_recorded(out, cfg, &world, live, ctl, &claimed);
+    let written = mmq_lab::record::run_recorded(out, run, live, ctl, &claimed);
     progress.end();
     let written = written?;
     progress.say(&crate::text::run_summary(&written.summary));
@@ -71,14 +71,15 @@ mod tests {
     fn a_run_says_its_summary_and_where_it_wrote_then_replaces_its_files_on_a_rerun() {
         let tmp = std::env::temp_dir().join(format!("mmq-report-run-{}", std::process::id()));
         let world = "paper-9x9".into();
-        let cfg = RunConfig {
+        let cfg = mmq_lab::RunConfig {
             world,
             steps: 200,
             window: 100,
             eval_steps: 10,
             baseline: false,
-            ..RunConfig::default()
+            ..mmq_lab::RunConfig::default()
         };
+        let cfg = Resolved::new(cfg).unwrap();
         let stop = AtomicBool::new(false);
         let told = Told::default();
         assert!(!run(&cfg, &tmp, None, &stop, &told).unwrap());

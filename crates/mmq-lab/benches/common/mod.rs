@@ -14,8 +14,7 @@
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-use mmq_core::World;
-use mmq_lab::{Control, RunConfig, run_seed};
+use mmq_lab::{Control, Resolved, RunConfig, run_seed};
 use mmq_learn::LearnerSpec;
 
 /// Memory the learner's tables may take (the runner refuses a learner that needs more).
@@ -43,22 +42,19 @@ pub fn config(world: &str, learner: LearnerSpec, steps: u64) -> RunConfig {
     }
 }
 
-/// A configuration with its world loaded and delay parsed, and the pool it runs on.
+/// A configuration resolved (world loaded, delay parsed), and the pool it runs on.
 #[derive(Debug)]
 pub struct Seed {
-    pub cfg: RunConfig,
-    pub world: World,
-    pub dist: mmq_core::DelayDist,
+    pub run: Resolved,
     pool: rayon::ThreadPool,
 }
 
 impl Seed {
     /// `cfg`, checked, on a pool of `threads` threads (1: no spare core for the learner).
     pub fn new(cfg: RunConfig, threads: usize) -> Self {
-        let dist = cfg.validate().expect("a valid bench configuration");
-        let world = cfg.load_world().expect("the bench's world loads");
+        let run = Resolved::new(cfg).expect("a valid bench configuration");
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("a thread pool");
-        Seed { cfg, world, dist, pool }
+        Seed { run, pool }
     }
 
     /// Runs the seed to its end through [`run_seed`]; returns the reward earned.
@@ -66,8 +62,7 @@ impl Seed {
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
         let r = self.pool.install(|| {
-            run_seed(&self.cfg, &self.world, &self.dist, self.cfg.seed, None, ctl, MEM_LIMIT)
-                .expect("the bench's run")
+            run_seed(&self.run, self.run.cfg().seed, None, ctl, MEM_LIMIT).expect("the bench's run")
         });
         assert!(r.complete, "the bench's run ended early: {:?}", r.failure);
         r.run.earned_total

@@ -14,6 +14,8 @@ use crate::sweep::{SeedRecord, SweepSpec, load_records};
 pub struct Group {
     /// The cell's configuration: its seeds (`seed`, `seeds`) those the plan runs.
     pub cfg: RunConfig,
+    /// The cell's index in its spec ([`SweepSpec::run`] is its resolved run).
+    pub cell: usize,
     /// The records of its finished seeds, in seed order.
     pub results: Vec<SeedRecord>,
 }
@@ -26,7 +28,11 @@ pub fn groups(spec: &SweepSpec, dir: &Path) -> Vec<Group> {
     configs(spec)
         .into_iter()
         .enumerate()
-        .map(|(c, cfg)| Group { cfg, results: plan.cell_jobs(c).filter_map(|j| records[j].take()).collect() })
+        .map(|(c, cfg)| Group {
+            cfg,
+            cell: c,
+            results: plan.cell_jobs(c).filter_map(|j| records[j].take()).collect(),
+        })
         .collect()
 }
 

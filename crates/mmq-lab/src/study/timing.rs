@@ -4,7 +4,9 @@
 
 use crate::config::RunConfig;
 use crate::error::LabError;
-use crate::runner::{Control, memory_limit, run_seed};
+use crate::resolved::Resolved;
+use crate::resolved::run_seed;
+use crate::runner::{Control, memory_limit};
 
 /// One decision step as the reward-timing figure shows it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,20 +36,19 @@ impl mmq_core::Observer for LastSteps {
     }
 }
 
-/// The per-step earned and received rewards of the last `keep` steps of `cfg`'s run with
-/// `seed` (the same run, bit for bit, as that seed's in a group): where the delay shows.
+/// The per-step earned and received rewards of the last `keep` steps of `run` with
+/// `seed` (the same run, bit for bit, as that seed's in a study's store): where the
+/// delay shows.
 pub fn last_steps(
-    cfg: &RunConfig,
+    run: &Resolved,
     seed: u64,
     keep: usize,
     ctl: Control<'_>,
 ) -> Result<Vec<StepRewards>, LabError> {
-    let world = cfg.load_world()?;
-    let dist = cfg.validate()?;
     let out = std::sync::Arc::new(std::sync::Mutex::new(std::collections::VecDeque::with_capacity(keep)));
     let observer = LastSteps { keep, out: out.clone() };
-    let cfg = RunConfig { baseline: false, ..cfg.clone() };
-    run_seed(&cfg, &world, &dist, seed, Some(Box::new(observer)), ctl, memory_limit(1))?;
+    let run = run.with_cfg(RunConfig { baseline: false, ..run.cfg().clone() });
+    run_seed(&run, seed, Some(Box::new(observer)), ctl, memory_limit(1))?;
     let q = out.lock().unwrap_or_else(|p| p.into_inner());
     Ok(q.iter().copied().collect())
 }

@@ -470,7 +470,7 @@ fn with_robot(world: &World, overrides: &[String]) -> Result<World, String> {
 
 /// A lab error's message without the command-line flag it names (`--alpha = 2 ...` →
 /// `2 ...`), for spec messages that name the field themselves.
-fn plain_message(e: &LabError) -> String {
+pub(super) fn plain_message(e: &LabError) -> String {
     match e {
         LabError::InvalidParam { value, accepted, .. } => format!("{value} is not accepted; {accepted}"),
         LabError::Learner(mmq_learn::LearnError::InvalidParam { value, accepted, .. }) => {

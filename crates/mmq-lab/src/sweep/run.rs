@@ -5,14 +5,12 @@
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use mmq_core::DelayDist;
 use rayon::prelude::*;
 
 use super::plan::Shard;
 use super::spec::SweepSpec;
 use super::store::{finish_dir, is_finished, write_failed_job, write_job};
 use crate::batch::{BatchLearner, run_batch};
-use crate::config::RunConfig;
 use crate::error::LabError;
 use crate::exec::{Job, baselines_needed, run_jobs};
 use crate::output::write_atomic;
@@ -127,7 +125,7 @@ fn run_batches(
         let seeds: Vec<u64> = jobs[start..end].iter().map(|j| j.seed).collect();
         let factory =
             |n_states: usize, n_actions: usize, seeds: &[u64]| batches(c, n_states, n_actions, seeds);
-        let results = run_batch(j.cfg, j.world, j.dist, &seeds, &factory, ctl, limit)?;
+        let results = run_batch(j.run, &seeds, &factory, ctl, limit)?;
         for (k, r) in results.into_iter().enumerate() {
             done(start + k, r)?;
         }
@@ -219,7 +217,6 @@ fn run_sweep_how(
     let pending: Vec<usize> = here.iter().zip(&have).filter(|x| !*x.1).map(|x| *x.0).collect();
     let skipped = here.len() - pending.len();
 
-    let dists: Vec<DelayDist> = spec.configs.iter().map(RunConfig::validate).collect::<Result<_, _>>()?;
     let per_cell: Vec<Box<LearnerFactory<'_>>> = match how {
         How::Each(Some(f)) => (0..plan.cells.len())
             .map(|c| Box::new(move |s, a, seed| f(c, s, a, seed)) as Box<LearnerFactory<'_>>)
@@ -231,12 +228,12 @@ fn run_sweep_how(
         .map(|&j| {
             let (c, seed) = plan.job(j);
             let learner = per_cell.get(c).map(|f| &**f);
-            Job { cfg: spec.config(c), world: spec.world(c), dist: &dists[c], seed, learner }
+            Job { run: spec.run(c), seed, learner }
         })
         .collect();
     let baselines = baselines_needed(&jobs);
-    let steps: u64 =
-        jobs.iter().map(|j| j.cfg.steps).sum::<u64>() + baselines.iter().map(|(_, steps)| steps).sum::<u64>();
+    let steps: u64 = jobs.iter().map(|j| j.run.cfg().steps).sum::<u64>()
+        + baselines.iter().map(|(_, steps)| steps).sum::<u64>();
     events(&SweepEvent::Planned {
         jobs_total: plan.jobs(),
         jobs_here: here.len(),
@@ -246,7 +243,7 @@ fn run_sweep_how(
     });
 
     let optimum: Vec<f64> = spec.worlds.iter().map(|w| mmq_core::optimum(w).gain).collect();
-    let ceilings: Vec<Option<f64>> = (0..spec.configs.len())
+    let ceilings: Vec<Option<f64>> = (0..spec.runs.len())
         .map(|c| crate::summary::ceiling_per_step(spec.config(c), spec.world(c)))
         .collect();
     let finished = AtomicUsize::new(0);
@@ -297,8 +294,7 @@ mod tests {
     use std::sync::atomic::AtomicBool;
 
     use super::*;
-    use crate::exec::baseline_config;
-    use crate::runner::run_seed;
+    use crate::resolved::run_seed;
     use crate::sweep::merge::same_results;
 
     fn spec(text: &str) -> Result<SweepSpec, LabError> {
@@ -312,14 +308,11 @@ mod tests {
         let s = spec("world = \"../paper-3x3.toml\"\nlearner = \"mmq\"\ndelay = \"poisson:2\"\nmax_delay = 4\nsteps = 3000\n").unwrap();
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
-        let cfg = s.config(0);
-        let dist = cfg.validate().unwrap();
-        let whole = run_seed(cfg, s.world(0), &dist, 7, None, ctl, 1 << 30).unwrap();
-        let mut part =
-            run_seed(&RunConfig { baseline: false, ..cfg.clone() }, s.world(0), &dist, 7, None, ctl, 1 << 30)
-                .unwrap();
-        let base =
-            run_seed(&baseline_config(cfg), s.world(0), &DelayDist::None, 7, None, ctl, 1 << 30).unwrap();
+        let run = s.run(0);
+        let whole = run_seed(run, 7, None, ctl, 1 << 30).unwrap();
+        let alone = run.with_cfg(crate::config::RunConfig { baseline: false, ..run.cfg().clone() });
+        let mut part = run_seed(&alone, 7, None, ctl, 1 << 30).unwrap();
+        let base = run_seed(&run.baseline(), 7, None, ctl, 1 << 30).unwrap();
         part.baseline = Some(base.run);
         part.baseline_greedy_per_step = Some(base.greedy_per_step);
         let opt = mmq_core::optimum(s.world(0)).gain;

@@ -3,6 +3,7 @@
 
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 use mmq_core::World;
 
@@ -10,8 +11,10 @@ use super::plan::{Plan, PlanCell};
 use super::product::{Product, product};
 use super::syntax::{Given, Meta, Source, Table};
 use super::{FIELDS, MAX_JOBS, MAX_SPEC_BYTES};
+
 use crate::config::RunConfig;
 use crate::error::LabError;
+use crate::resolved::Resolved;
 
 /// The parsed, validated spec with its resolved worlds and every cell's configuration.
 #[derive(Debug)]
@@ -22,13 +25,14 @@ pub struct SweepSpec {
     pub text: String,
     /// Cells, seeds and swept axes.
     pub plan: Plan,
-    /// Per cell: its run configuration (world path resolved; one seed; no tables).
-    pub(super) configs: Vec<RunConfig>,
+    /// Per cell: its resolved run (world path resolved and loaded, shared by the cells
+    /// on it; delay parsed; one seed; no tables).
+    pub(super) runs: Vec<Resolved>,
     /// Per cell: index into `worlds`.
     pub(super) world_of: Vec<usize>,
     /// Distinct worlds, each with its robot setting applied (world-major: world `w`
     /// with robot setting `r` is `w × settings + r`).
-    pub(super) worlds: Vec<World>,
+    pub(super) worlds: Vec<Arc<World>>,
     /// Points of the learning curve stored per job (0: none; spec `curve`).
     pub(super) curve: u64,
     /// Whether each job also stores its seed's record ([`super::SeedRecord`]),
@@ -90,12 +94,17 @@ impl SweepSpec {
 
     /// The run configuration of cell `c` (one seed, no tables).
     pub fn config(&self, c: usize) -> &RunConfig {
-        &self.configs[c]
+        self.runs[c].cfg()
     }
 
     /// The world of cell `c`.
     pub fn world(&self, c: usize) -> &World {
-        &self.worlds[self.world_of[c]]
+        self.runs[c].world()
+    }
+
+    /// The resolved run of cell `c` (one seed, no tables).
+    pub fn run(&self, c: usize) -> &Resolved {
+        &self.runs[c]
     }
 
     /// The same spec, whose jobs also store their seed's record
@@ -165,8 +174,21 @@ fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
         let offset = worlds.len();
         configs.extend(p.configs);
         world_of.extend(p.world_of.iter().map(|w| w + offset));
-        worlds.extend(p.worlds);
+        worlds.extend(p.worlds.into_iter().map(Arc::new));
     }
+    // Each cell's delay parsed once, here (its fields were checked one by one already).
+    let runs = configs
+        .into_iter()
+        .zip(&world_of)
+        .enumerate()
+        .map(|(c, (cfg, &w))| {
+            let dist = cfg.validate().map_err(|e| LabError::Config {
+                file: file.to_string(),
+                message: format!("cell {c}: {}", super::product::plain_message(&e)),
+            })?;
+            Ok(Resolved::from_parts(cfg, worlds[w].clone(), dist))
+        })
+        .collect::<Result<Vec<_>, LabError>>()?;
     let axes = (0..fields.len())
         .filter(|&i| listed.contains(&fields[i]) || cells.iter().any(|c| c.params[i] != cells[0].params[i]))
         .map(|i| fields[i].clone())
@@ -176,7 +198,7 @@ fn join(products: Vec<Product>, file: &str) -> Result<SweepSpec, LabError> {
         file: PathBuf::new(),
         text: String::new(),
         plan,
-        configs,
+        runs,
         world_of,
         worlds,
         curve: 0,

@@ -26,11 +26,11 @@ fn robot_run_verifies_and_an_altered_action_is_caught() {
         record: Some(RecordSettings::default()),
         ..RunConfig::default()
     };
-    let w = cfg.load_world().unwrap();
+    let w = mmq_lab::Resolved::new(cfg.clone()).unwrap();
     let stop = AtomicBool::new(false);
     let ctl = Control { stop: &stop, progress: &|_| {} };
     let factory = recorder_factory(&cfg, dir.path());
-    let out = run_all(&cfg, &w, &factory, ctl).unwrap();
+    let out = run_all(&w, &factory, ctl).unwrap();
     assert!(!out.interrupted);
     let log = mmq_log::read_log(trajectory_path(dir.path(), 7)).unwrap();
     assert!(log.complete);
@@ -73,10 +73,10 @@ fn recorded_grid(dir: &std::path::Path, steps: u64) -> (PathBuf, mmq_log::LogCon
         record: Some(RecordSettings::default()),
         ..RunConfig::default()
     };
-    let w = cfg.load_world().unwrap();
+    let w = mmq_lab::Resolved::new(cfg.clone()).unwrap();
     let stop = AtomicBool::new(false);
     let factory = recorder_factory(&cfg, dir);
-    run_all(&cfg, &w, &factory, Control { stop: &stop, progress: &|_| {} }).unwrap();
+    run_all(&w, &factory, Control { stop: &stop, progress: &|_| {} }).unwrap();
     let path = trajectory_path(dir, 3);
     let log = mmq_log::read_log(&path).unwrap();
     assert!(log.complete);
@@ -193,10 +193,10 @@ fn a_realistic_robot_run_with_delays_in_seconds_verifies() {
         robot: vec!["profile=realistic".into()],
         ..RunConfig::default()
     };
-    let w = cfg.load_world().unwrap();
+    let w = mmq_lab::Resolved::new(cfg.clone()).unwrap();
     let stop = AtomicBool::new(false);
     let factory = recorder_factory(&cfg, dir.path());
-    run_all(&cfg, &w, &factory, Control { stop: &stop, progress: &|_| {} }).unwrap();
+    run_all(&w, &factory, Control { stop: &stop, progress: &|_| {} }).unwrap();
     let log = mmq_log::read_log(trajectory_path(dir.path(), 5)).unwrap();
     // Delays in seconds are recorded as drawn: no steps at emission, the due time in seconds.
     assert!(!log.emitted.is_empty());
@@ -267,7 +267,7 @@ fn a_closed_gate_skips_steps_and_the_resume_point_is_exact() {
             delay: "uniform:0:40".into(),
             ..RunConfig::default()
         };
-        let w = cfg.load_world().unwrap();
+        let w = mmq_lab::Resolved::new(cfg.clone()).unwrap();
         let stop = AtomicBool::new(false);
         let ctl = Control { stop: &stop, progress: &|_| {} };
         let run = |gated: bool| {
@@ -281,7 +281,7 @@ fn a_closed_gate_skips_steps_and_the_resume_point_is_exact() {
             let factory = move |_| {
                 Ok(obs.lock().unwrap().take().map(|o| Box::new(o) as Box<dyn mmq_core::Observer + Send>))
             };
-            let out = run_all(&cfg, &w, &factory, ctl).unwrap();
+            let out = run_all(&w, &factory, ctl).unwrap();
             let seen = std::mem::take(&mut *seen.lock().unwrap());
             (out, seen)
         };
@@ -362,7 +362,7 @@ fn an_interrupted_run_with_a_huge_horizon_verifies_what_it_holds() {
         record: Some(RecordSettings::default()),
         ..RunConfig::default()
     };
-    let w = cfg.load_world().unwrap();
+    let w = mmq_lab::Resolved::new(cfg.clone()).unwrap();
     let stop: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
     let recorders = recorder_factory(&cfg, dir.path());
     let factory = |seed: u64| {
@@ -370,7 +370,7 @@ fn an_interrupted_run_with_a_huge_horizon_verifies_what_it_holds() {
             r.map(|rec| Box::new(StopAfter { rec, at: 3_000, stop }) as Box<dyn mmq_core::Observer + Send>)
         })
     };
-    let out = run_all(&cfg, &w, &factory, Control { stop, progress: &|_| {} }).unwrap();
+    let out = run_all(&w, &factory, Control { stop, progress: &|_| {} }).unwrap();
     assert!(out.interrupted);
     let log = mmq_log::read_log(trajectory_path(dir.path(), 4)).unwrap();
     assert!(log.complete, "{:?} {:?}", log.stop, log.problems);
