@@ -275,6 +275,17 @@ fn edited_figure_specs_give_the_figure_for_the_variant() {
     assert_eq!(rows.len(), 2, "{csv}");
     assert!(rows[0].starts_with("paper-5x5,poisson:3,0.1,q,false,1,"), "{csv}");
     assert!(rows[1].starts_with("paper-5x5,poisson:3,0.1,deconv-q,false,1,"), "{csv}");
+    // The comparison's section is laid out from the settings that ran, not the shipped
+    // study's: its world's headline table, its one delay and ε, its two learners.
+    let section = &md[md.find("## The learner comparison").expect("the comparison's section")..];
+    assert!(section.contains("\n### 5×5, Poisson λ = 3\n"), "{section}");
+    assert!(section.contains("\n### paper-5x5: relative performance for every delay\n"), "{section}");
+    assert!(section.contains("| learner | λ = 3 |"), "{section}");
+    assert!(section.contains("\n| q | 0.1 | ") && section.contains("\n| deconv-q | 0.1 | "), "{section}");
+    assert!(
+        !section.contains("9×9") && !section.contains("maze") && !section.contains("| mmq |"),
+        "{section}"
+    );
 }
 
 /// Runs `mmq paper --fig 2,3,4` on a tiny budget with the given edited figure specs and

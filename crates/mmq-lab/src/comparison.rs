@@ -24,36 +24,16 @@ use crate::runner::DIAGNOSTICS_EVERY;
 use crate::study::{Group, SeedRecord};
 use crate::sweep::SweepSpec;
 
-/// Every learner of the study, in report order.
-pub const LEARNERS: [LearnerKind; 8] = [
-    LearnerKind::Q,
-    LearnerKind::Mmq,
-    LearnerKind::MmqKernel,
-    LearnerKind::QLambda,
-    LearnerKind::SarsaLambda,
-    LearnerKind::DeconvQ,
-    LearnerKind::DeconvModel,
-    LearnerKind::Oracle,
-];
-/// The worlds.
-pub const WORLDS: [&str; 2] = ["paper-9x9", "maze-15x15"];
-/// Poisson means of the main grid.
-pub const LAMBDAS: [u32; 4] = [0, 5, 13, 25];
-/// Exploration rates of the main grid.
-pub const EPSILONS: [f64; 3] = [0.02, 0.05, 0.1];
-/// Exploration rates of the non-Poisson delays.
-pub const OTHER_EPSILONS: [f64; 2] = [0.05, 0.1];
-/// A WiFi-latency-like histogram: most deliveries after 2–5 steps, a long tail, and a
-/// second bump near 20 steps (retransmissions after a time-out).
-pub const WIFI_HIST: &str = "hist:0,3,9,14,12,9,6,4,3,2,1.5,1.2,1,0.8,0.7,0.6,0.6,0.7,1,1.4,1.6,1.4,1,0.7,0.5,0.4,0.3,0.3,0.2,0.2,0.2,0.1,0.1,0.1,0.1,0.1";
-/// The non-Poisson delays: (label, spec).
-pub const OTHER_DELAYS: [(&str, &str); 3] = [
+/// Names of the non-Poisson delays the shipped study runs, for the report's headings
+/// (any other delay is named by its spec); the study's axes come from its plan.
+pub const DELAY_NAMES: [(&str, &str); 3] = [
     ("uniform 0–26", "uniform:0:26"),
     ("mixture ½ Poisson(3) + ½ Poisson(25)", "mix:0.5*poisson:3+0.5*poisson:25"),
-    ("WiFi-like histogram", WIFI_HIST),
+    (
+        "WiFi-like histogram",
+        "hist:0,3,9,14,12,9,6,4,3,2,1.5,1.2,1,0.8,0.7,0.6,0.6,0.7,1,1.4,1.6,1.4,1,0.7,0.5,0.4,0.3,0.3,0.2,0.2,0.2,0.1,0.1,0.1,0.1,0.1",
+    ),
 ];
-/// Learners that estimate the delay pmf (and have a "told" ablation).
-pub const DECONV: [LearnerKind; 2] = [LearnerKind::DeconvQ, LearnerKind::DeconvModel];
 /// Steps at which the delay estimate is judged ("after 50k steps").
 pub const JUDGE_AT: u64 = 50_000;
 
@@ -76,17 +56,13 @@ pub struct Setting {
     pub learner: LearnerKind,
     /// Whether a deconvolving learner is told the true pmf (ablation).
     pub told: bool,
+    /// A headline setting: one the spec as written runs over the most seeds of its world
+    /// (20 on 9×9, 5 on the maze), the delay estimated (not told).
+    #[serde(default)]
+    pub headline: bool,
 }
 
 impl Setting {
-    /// A headline setting: ε = 0.05 or 0.1, Poisson λ = 13 or a non-Poisson delay,
-    /// the delay estimated (not told).
-    pub fn is_headline(&self) -> bool {
-        !self.told
-            && OTHER_EPSILONS.contains(&self.epsilon)
-            && (self.delay == "poisson:13" || OTHER_DELAYS.iter().any(|(_, d)| *d == self.delay))
-    }
-
     /// The learner's name as reported (`deconv-q (told pmf)` for the ablation).
     pub fn learner_label(&self) -> String {
         if self.told {
@@ -102,7 +78,7 @@ impl Setting {
 pub fn delay_label(delay: &str) -> String {
     match delay.strip_prefix("poisson:") {
         Some(l) => format!("Poisson λ = {l}"),
-        None => OTHER_DELAYS
+        None => DELAY_NAMES
             .iter()
             .find(|(_, d)| *d == delay)
             .map_or_else(|| delay.to_string(), |(l, _)| l.to_string()),
@@ -111,8 +87,19 @@ pub fn delay_label(delay: &str) -> String {
 
 /// Every setting of the study with its cell in `spec`, in report order: the told-pmf
 /// ablation last, otherwise by world, delay, ε and learner in the order the spec first
-/// names them.
-pub fn plan(spec: &SweepSpec) -> Vec<(Setting, usize)> {
+/// names them. `written` is the spec as written (its seeds mark the headline settings);
+/// its cells are `spec`'s at another budget.
+pub fn plan(spec: &SweepSpec, written: &SweepSpec) -> Vec<(Setting, usize)> {
+    let seeds_written = |c: usize| written.plan.cells.get(c).map_or(0, |_| written.plan.seeds_of(c).len());
+    let world_of = |c: usize| spec.config(c).world.clone();
+    // The most seeds any cell on the same world runs, as written.
+    let most = |c: usize| {
+        (0..spec.plan.cells.len())
+            .filter(|&d| world_of(d) == world_of(c))
+            .map(seeds_written)
+            .max()
+            .unwrap_or(0)
+    };
     let mut v = Vec::with_capacity(spec.plan.cells.len());
     for c in 0..spec.plan.cells.len() {
         let cell = spec.config(c);
@@ -124,8 +111,10 @@ pub fn plan(spec: &SweepSpec) -> Vec<(Setting, usize)> {
             learner: cell.learner.kind(),
             told: cell.learner.settings.deconv().is_some_and(|d| d.told_delay.is_some()),
             world,
+            headline: false,
         };
-        v.push((setting, c));
+        let headline = !setting.told && seeds_written(c) == most(c);
+        v.push((Setting { headline, ..setting }, c));
     }
     // Each setting's key: world, delay, ε and learner as the spec first names them.
     let keys: Vec<[String; 4]> = v
@@ -143,12 +132,13 @@ pub fn plan(spec: &SweepSpec) -> Vec<(Setting, usize)> {
     ranked.into_iter().map(|(_, setting)| setting).collect()
 }
 
-/// The seeds of the first 9×9 headline setting, the first other 9×9 setting, and the
-/// same on the other world, as the report states the budget.
+/// The seeds of the first headline setting on the first world, of its first other
+/// setting, and the same on the other worlds, as the report states the budget.
 pub fn seed_budget(spec: &SweepSpec, plan: &[(Setting, usize)]) -> [u64; 4] {
+    let first = plan.first().map(|(s, _)| s.world.clone()).unwrap_or_default();
     let of = |nine: bool, headline: bool| {
         plan.iter()
-            .find(|(s, _)| (s.world == WORLDS[0]) == nine && s.is_headline() == headline)
+            .find(|(s, _)| (s.world == first) == nine && s.headline == headline)
             .map_or(0, |(_, c)| spec.plan.seeds_of(*c).len() as u64)
     };
     [of(true, true), of(true, false), of(false, true), of(false, false)]
@@ -235,7 +225,8 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
             })
             .collect()
     };
-    let estimates = DECONV.contains(&setting.learner) && !setting.told;
+    // A learner whose delay pmf is estimated (not told; none for learners without one).
+    let estimates = !setting.told && rs.iter().any(|r| r.delay_estimated);
     let (true_pmf, true_median, _) = truth(&setting.delay)?;
     let pmfs: Vec<Vec<f64>> = rs
         .iter()
@@ -294,9 +285,20 @@ mod tests {
     /// budget states.
     #[test]
     fn the_spec_runs_the_study_in_report_order() {
+        use LearnerKind::*;
+        let learners = [Q, Mmq, MmqKernel, QLambda, SarsaLambda, DeconvQ, DeconvModel, Oracle];
+        const WORLDS: [&str; 2] = ["paper-9x9", "maze-15x15"];
+        const LAMBDAS: [u32; 4] = [0, 5, 13, 25];
+        const EPSILONS: [f64; 3] = [0.02, 0.05, 0.1];
+        const OTHER_EPSILONS: [f64; 2] = [0.05, 0.1];
+        let other_delays = DELAY_NAMES;
         let mut expected = Vec::new();
         let mut push = |world: &str, delay: &str, epsilon: f64, learner: LearnerKind, told: bool| {
             let delay_label = delay_label(delay);
+            // The headline: ε 0.05 or 0.1, Poisson 13 or a non-Poisson delay, estimated.
+            let headline = !told
+                && OTHER_EPSILONS.contains(&epsilon)
+                && (delay == "poisson:13" || other_delays.iter().any(|d| d.1 == delay));
             expected.push(Setting {
                 world: world.into(),
                 delay: delay.into(),
@@ -304,43 +306,46 @@ mod tests {
                 epsilon,
                 learner,
                 told,
+                headline,
             });
         };
         for world in WORLDS {
             for l in LAMBDAS {
                 for eps in EPSILONS {
-                    for k in LEARNERS {
+                    for k in learners {
                         push(world, &format!("poisson:{l}"), eps, k, false);
                     }
                 }
             }
-            for (_, spec) in OTHER_DELAYS {
+            for (_, spec) in other_delays {
                 for eps in OTHER_EPSILONS {
-                    for k in LEARNERS {
+                    for k in learners {
                         push(world, spec, eps, k, false);
                     }
                 }
             }
         }
-        for spec in ["poisson:13"].into_iter().chain(OTHER_DELAYS.map(|d| d.1)) {
+        for spec in ["poisson:13"].into_iter().chain(other_delays.map(|d| d.1)) {
             for eps in OTHER_EPSILONS {
-                for k in DECONV {
+                for k in [DeconvQ, DeconvModel] {
                     push("paper-9x9", spec, eps, k, true);
                 }
             }
         }
         use crate::study::Budget;
         let spec = Budget::default().spec(None, "paper-comparison").unwrap();
-        let full = plan(&spec);
+        let full = plan(&spec, &spec);
         let got: Vec<&Setting> = full.iter().map(|(s, _)| s).collect();
         assert_eq!(got, expected.iter().collect::<Vec<_>>());
         assert_eq!(seed_budget(&spec, &full), [20, 5, 5, 2]);
         let quick_spec = Budget { quick: true, ..Budget::default() }.spec(None, "paper-comparison").unwrap();
-        let quick = plan(&quick_spec);
+        let quick = plan(&quick_spec, &spec);
         assert_eq!(seed_budget(&quick_spec, &quick), [6, 2, 2, 1]);
-        for ((s, ci), (_, q)) in full.iter().zip(&quick) {
-            let (c, q) = (spec.config(*ci), quick_spec.config(*q));
-            let (n9, headline) = (s.world == WORLDS[0], s.is_headline());
+        for ((s, ci), (_, qi)) in full.iter().zip(&quick) {
+            let (c, q) = (spec.config(*ci), quick_spec.config(*qi));
+            let (n9, headline) = (s.world == WORLDS[0], s.headline);
+            let quick_seeds = [1, 2, 6][usize::from(n9) + usize::from(headline)];
+            assert_eq!(quick_spec.plan.seeds_of(*qi).len(), quick_seeds, "{s:?}");
             let want = match (n9, headline) {
                 (true, true) => 20,
                 (true, false) | (false, true) => 5,
@@ -367,10 +372,7 @@ mod tests {
             );
             assert_eq!((q.steps, q.window), (30_000, 1000));
         }
-        // The comparison names each learner once, and only learners the catalogue has.
-        let names: std::collections::BTreeSet<&str> = LEARNERS.iter().map(|k| k.name()).collect();
-        assert_eq!(names.len(), LEARNERS.len());
-        for (_, spec) in OTHER_DELAYS {
+        for (_, spec) in DELAY_NAMES {
             let (p, med, _) = truth(spec).unwrap();
             assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-9 && med > 0.0);
         }

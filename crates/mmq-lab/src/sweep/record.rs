@@ -39,6 +39,9 @@ pub struct SeedRecord {
     /// The learner's delay estimate at each diagnostics sample: (step, median, mean).
     #[serde(default, skip_serializing_if = "Vec::is_empty", with = "samples")]
     pub delay_samples: Vec<(u64, f64, f64)>,
+    /// Whether the learner's delay pmf is estimated (false: told, or none).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub delay_estimated: bool,
     /// The learner's delay pmf at the end (learners that keep one).
     #[serde(default, skip_serializing_if = "Option::is_none", with = "opt_text_vec")]
     pub delay_pmf: Option<Vec<f64>>,
@@ -101,6 +104,7 @@ impl SeedRecord {
             policy_probs: r.policy_probs.clone(),
             wall_time_s: r.wall_time_s,
             delay_samples,
+            delay_estimated: r.diagnostics.delay.as_ref().is_some_and(|d| d.estimated),
             delay_pmf: r.diagnostics.delay.as_ref().map(|d| d.pmf.clone()),
             figures: r.diagnostics.figures.iter().map(|(k, v)| ((*k).to_string(), *v)).collect(),
         }
@@ -268,6 +272,7 @@ mod tests {
             policy_probs: vec![vec![0.25; 4], vec![f64::NAN; 4]],
             wall_time_s: 1e-300,
             delay_samples: vec![(5000, 13.0, 12.999999999999998)],
+            delay_estimated: true,
             delay_pmf: Some(vec![0.1, 0.9]),
             figures: vec![("learner/probes".into(), 3.0)],
         };

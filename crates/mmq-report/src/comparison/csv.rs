@@ -92,10 +92,12 @@ pub(super) fn pmf_csv(outs: &[Outcome]) -> Result<String, LabError> {
 #[cfg(test)]
 mod tests {
     use mmq_core::stats::mean_ci;
-    use mmq_lab::comparison::{Setting, WIFI_HIST};
+    use mmq_lab::comparison::{DELAY_NAMES, Setting};
     use mmq_learn::LearnerKind;
 
     use super::*;
+
+    const WIFI_HIST: &str = DELAY_NAMES[2].1;
 
     /// The WiFi histogram's spec holds commas: every CSV quotes it, so each row has the
     /// header's number of fields when read by a CSV reader (RFC 4180 quoting).
@@ -110,6 +112,7 @@ mod tests {
                 epsilon: 0.05,
                 learner: LearnerKind::DeconvQ,
                 told: false,
+                headline: true,
             },
             n: 1,
             relative: m(1.0),
