@@ -254,7 +254,7 @@ pub fn outcome(setting: &Setting, g: &Group, world: &World) -> Result<Outcome, L
         (mean_ci(&lo), mean_ci(&hi))
     });
     let _ = true_pmf;
-    let probes: Option<Vec<f64>> = rs.iter().map(|r| r.figure("learner/probes")).collect();
+    let probes: Option<Vec<f64>> = rs.iter().map(|r| r.figure(mmq_learn::Figure::Probes)).collect();
     Ok(Outcome {
         setting: setting.clone(),
         n: rs.len(),

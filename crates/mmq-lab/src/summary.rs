@@ -106,7 +106,7 @@ pub fn diagnostics_entries(d: &Diagnostics) -> Vec<(String, f64)> {
             m.push(("delay/median_est_s".to_string(), median));
         }
     }
-    m.extend(d.figures.iter().map(|(k, v)| ((*k).to_string(), *v)));
+    m.extend(d.figures.iter().map(|(k, v)| (k.name().to_string(), *v)));
     for (v, &value) in d.reward_values.iter().enumerate() {
         m.push((format!("reward/value/{v}"), value));
     }

@@ -31,6 +31,7 @@ use std::collections::HashMap;
 
 use crate::deconv::{DeconvConfig, DeconvSettings, Deconvolver, next_refit_after};
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::learner::Table;
 use crate::surprise::{self, Surprise};
 
@@ -420,12 +421,12 @@ impl ValueDeconvolver {
     pub fn diagnostics(&self) -> Diagnostics {
         let mut d = self.parts[0].diagnostics();
         if self.cfg.settings.decode_values {
-            d.figures.push(("reward/values_found", self.values.len() as f64));
-            d.figures.push(("reward/value_rebuilds", self.rebuilds as f64));
+            d.figures.push((Figure::RewardValuesFound, self.values.len() as f64));
+            d.figures.push((Figure::RewardValueRebuilds, self.rebuilds as f64));
             d.reward_values.clone_from(&self.values);
         }
         if self.surprise.is_some() {
-            d.figures.push(("delay/surprise_refits", self.surprise_refits as f64));
+            d.figures.push((Figure::DelaySurpriseRefits, self.surprise_refits as f64));
         }
         d
     }
@@ -535,8 +536,7 @@ mod tests {
                 }
                 pending = if x == 0 && t < 400 { 4.0 } else { 0.0 };
             }
-            let surprised =
-                d.diagnostics().figures.iter().find(|f| f.0 == "delay/surprise_refits").map(|f| f.1);
+            let surprised = d.diagnostics().figure(Figure::DelaySurpriseRefits);
             (d.reward(0), refit_at, surprised)
         };
         let (r, at, surprised) = run(0.0);
@@ -630,7 +630,7 @@ mod tests {
         assert_eq!(neg.pmf(), pos.pmf());
         assert!((pmf_mean(d.pmf()) - 2.0).abs() < 0.1, "p̂ = {:?}", d.pmf());
         let m = d.diagnostics();
-        assert_eq!(m.figure("reward/values_found"), Some(2.0));
+        assert_eq!(m.figure(Figure::RewardValuesFound), Some(2.0));
         assert_eq!(m.reward_values.len(), 2);
     }
 

@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::deconv::{DeconvConfig, DeconvSettings};
 use crate::deconv_model::{DeconvModel, ExploreSettings, Probes, Trajectory};
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::error::{LearnError, bad};
 use crate::learner::{Decision, Experience, Learner, Table};
 use crate::memory::Memory;
@@ -202,9 +203,9 @@ impl Learner for DeconvModelTime {
         if let Some(delay) = d.delay.as_mut() {
             delay.time_bin_s = Some(self.bin_s);
         }
-        d.figures.push(("learner/time_bin_s", self.bin_s));
-        d.figures.push(("learner/time_bins_idle", self.idle_bins as f64));
-        d.figures.push(("learner/time_bins_shifted", self.shifted as f64));
+        d.figures.push((Figure::TimeBinS, self.bin_s));
+        d.figures.push((Figure::TimeBinsIdle, self.idle_bins as f64));
+        d.figures.push((Figure::TimeBinsShifted, self.shifted as f64));
         d
     }
 
@@ -295,8 +296,8 @@ mod tests {
             s = s2;
         }
         let m = time.diagnostics();
-        let get = |k: &str| m.figure(k);
-        assert_eq!((get("learner/time_bins_idle"), get("learner/time_bins_shifted")), (Some(0.0), Some(0.0)));
+        let get = |k| m.figure(k);
+        assert_eq!((get(Figure::TimeBinsIdle), get(Figure::TimeBinsShifted)), (Some(0.0), Some(0.0)));
         assert_eq!(time.tables()[0].shape, vec![3, 2]);
     }
 
@@ -337,6 +338,6 @@ mod tests {
         let m = l.diagnostics();
         let mean_s = m.delay.as_ref().and_then(|d| d.mean_s()).unwrap();
         assert!((mean_s - 1.0).abs() < 0.15, "{mean_s}");
-        assert!(m.figure("learner/time_bins_idle").unwrap() > 0.0);
+        assert!(m.figure(Figure::TimeBinsIdle).unwrap() > 0.0);
     }
 }

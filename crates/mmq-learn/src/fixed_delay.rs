@@ -10,6 +10,7 @@ use mmq_core::{Action, State};
 use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::learner::{Experience, Learner};
 use crate::memory::Memory;
 use crate::params::Params;
@@ -90,10 +91,7 @@ impl Learner for FixedDelayQ {
     }
 
     fn diagnostics(&self) -> Diagnostics {
-        Diagnostics {
-            figures: vec![("learner/lambda_hat", self.lambda_hat as f64)],
-            ..Diagnostics::default()
-        }
+        Diagnostics { figures: vec![(Figure::LambdaHat, self.lambda_hat as f64)], ..Diagnostics::default() }
     }
 }
 

@@ -53,7 +53,7 @@ pub mod spec;
 mod surprise;
 pub mod table;
 
-pub use diagnostics::{DelayEstimate, Diagnostics};
+pub use diagnostics::{DelayEstimate, Diagnostics, Figure};
 pub use error::LearnError;
 pub use kind::{LearnerKind, catalogue};
 pub use learner::{Decision, Experience, Learner, Table, Truth};

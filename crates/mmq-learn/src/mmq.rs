@@ -37,6 +37,7 @@ use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::learner::{Decision, Experience, Learner, Table};
 use crate::memory::Memory;
 use crate::params::Params;
@@ -418,7 +419,7 @@ impl Learner for MultipleModelQ {
         } else {
             f64::NAN
         };
-        let figures = vec![("learner/model_star_mode", mode as f64), ("learner/model_star_mean", mean)];
+        let figures = vec![(Figure::ModelStarMode, mode as f64), (Figure::ModelStarMean, mean)];
         Diagnostics { figures, ..Diagnostics::default() }
     }
 

@@ -27,6 +27,7 @@ use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::error::{LearnError, bad};
 use crate::learner::{Decision, Experience, Learner, Table, max_of};
 use crate::memory::Memory;
@@ -213,8 +214,8 @@ impl Learner for KernelMmq {
             f64::NAN
         };
         let figures = vec![
-            ("mmq/leader", self.leader().map_or(f64::NAN, |l| l as f64)),
-            ("mmq/mean_chosen_model", mean),
+            (Figure::MmqLeader, self.leader().map_or(f64::NAN, |l| l as f64)),
+            (Figure::MmqMeanChosenModel, mean),
         ];
         Diagnostics { figures, ..Diagnostics::default() }
     }

@@ -16,6 +16,7 @@ use std::collections::HashMap;
 use mmq_core::{Action, State};
 
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::learner::{Experience, Learner, max_of};
 use crate::memory::Memory;
 use crate::params::Params;
@@ -90,10 +91,8 @@ impl Learner for Oracle {
     }
 
     fn diagnostics(&self) -> Diagnostics {
-        let figures = vec![
-            ("learner/credited", self.credited as f64),
-            ("learner/in_flight", self.pending.len() as f64),
-        ];
+        let figures =
+            vec![(Figure::Credited, self.credited as f64), (Figure::InFlight, self.pending.len() as f64)];
         Diagnostics { figures, ..Diagnostics::default() }
     }
 
@@ -158,7 +157,7 @@ mod tests {
         let t4 = Truth { emitted_now: Some(10.0), delivered: vec![(4, 10.0)], ..Truth::default() };
         l.observe(&exp(4, 0, 1, 1, 10.0, &t4));
         assert_eq!(l.q(0, 1), 7.5);
-        assert_eq!(l.diagnostics().figure("learner/credited"), Some(3.0));
+        assert_eq!(l.diagnostics().figure(Figure::Credited), Some(3.0));
     }
 
     #[test]

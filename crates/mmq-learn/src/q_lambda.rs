@@ -18,6 +18,7 @@ use mmq_core::{Action, Rng, State};
 use serde::{Deserialize, Serialize};
 
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::error::{LearnError, bad};
 use crate::learner::{Decision, Experience, Learner, max_of};
 use crate::memory::Memory;
@@ -152,8 +153,7 @@ impl Learner for QLambda {
     q_table_methods!(q, tables);
 
     fn diagnostics(&self) -> Diagnostics {
-        let figures =
-            vec![("learner/trace_decay", self.trace_decay), ("learner/trace_cuts", self.cuts as f64)];
+        let figures = vec![(Figure::TraceDecay, self.trace_decay), (Figure::TraceCuts, self.cuts as f64)];
         Diagnostics { figures, ..Diagnostics::default() }
     }
 

@@ -15,6 +15,7 @@
 use mmq_core::{Action, State};
 
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::learner::{Experience, Learner};
 use crate::memory::Memory;
 use crate::params::Params;
@@ -75,7 +76,7 @@ impl Learner for SarsaLambda {
     q_table_methods!(q, tables, act(p));
 
     fn diagnostics(&self) -> Diagnostics {
-        Diagnostics { figures: vec![("learner/trace_decay", self.trace_decay)], ..Diagnostics::default() }
+        Diagnostics { figures: vec![(Figure::TraceDecay, self.trace_decay)], ..Diagnostics::default() }
     }
 
     fn reset_history(&mut self) {

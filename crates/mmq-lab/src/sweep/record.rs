@@ -5,6 +5,7 @@
 //! from these records, read back from the sweep store bit for bit: every number is stored
 //! as the text of Rust's shortest round-trip form (`NaN` and `inf` included).
 
+use mmq_learn::Figure;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
 use crate::runner::SeedResult;
@@ -45,9 +46,9 @@ pub struct SeedRecord {
     /// The learner's delay pmf at the end (learners that keep one).
     #[serde(default, skip_serializing_if = "Option::is_none", with = "opt_text_vec")]
     pub delay_pmf: Option<Vec<f64>>,
-    /// The learner's figures at the end (`learner/probes`, ...), by name.
+    /// The learner's figures at the end ([`Figure::Probes`], ...), stored by name.
     #[serde(default, skip_serializing_if = "Vec::is_empty", with = "named")]
-    pub figures: Vec<(String, f64)>,
+    pub figures: Vec<(Figure, f64)>,
 }
 
 /// A run's totals and learning curve.
@@ -106,7 +107,7 @@ impl SeedRecord {
             delay_samples,
             delay_estimated: r.diagnostics.delay.as_ref().is_some_and(|d| d.estimated),
             delay_pmf: r.diagnostics.delay.as_ref().map(|d| d.pmf.clone()),
-            figures: r.diagnostics.figures.iter().map(|(k, v)| ((*k).to_string(), *v)).collect(),
+            figures: r.diagnostics.figures.clone(),
         }
     }
 
@@ -123,9 +124,9 @@ impl SeedRecord {
         self.run.earned_per_step()
     }
 
-    /// The learner's figure `name` at the end, if it reports one.
-    pub fn figure(&self, name: &str) -> Option<f64> {
-        self.figures.iter().find(|(n, _)| n == name).map(|(_, v)| *v)
+    /// The learner's figure `f` at the end, if it reports it.
+    pub fn figure(&self, f: Figure) -> Option<f64> {
+        self.figures.iter().find(|(n, _)| *n == f).map(|(_, v)| *v)
     }
 }
 
@@ -230,14 +231,22 @@ mod samples {
     }
 }
 
-/// Named numbers as `[[name, value], ...]`.
+/// Figures as `[[name, value], ...]`; a name no figure has is an error (the job is run
+/// again by a version that knows it).
 mod named {
     use super::*;
-    pub fn serialize<S: Serializer>(x: &[(String, f64)], s: S) -> Result<S::Ok, S::Error> {
-        x.iter().map(|(k, v)| [k.clone(), encode(*v)]).collect::<Vec<_>>().serialize(s)
+    pub fn serialize<S: Serializer>(x: &[(Figure, f64)], s: S) -> Result<S::Ok, S::Error> {
+        x.iter().map(|(k, v)| [k.name().to_string(), encode(*v)]).collect::<Vec<_>>().serialize(s)
     }
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(String, f64)>, D::Error> {
-        Vec::<[String; 2]>::deserialize(d)?.into_iter().map(|[k, v]| Ok((k, decode(&v)?))).collect()
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<(Figure, f64)>, D::Error> {
+        Vec::<[String; 2]>::deserialize(d)?
+            .into_iter()
+            .map(|[k, v]| {
+                let f = Figure::of_name(&k)
+                    .ok_or_else(|| serde::de::Error::custom(format!("no learner figure is named {k:?}")))?;
+                Ok((f, decode(&v)?))
+            })
+            .collect()
     }
 }
 
@@ -274,7 +283,7 @@ mod tests {
             delay_samples: vec![(5000, 13.0, 12.999999999999998)],
             delay_estimated: true,
             delay_pmf: Some(vec![0.1, 0.9]),
-            figures: vec![("learner/probes".into(), 3.0)],
+            figures: vec![(Figure::Probes, 3.0)],
         };
         let text = serde_json::to_string(&r).unwrap();
         let back: SeedRecord = serde_json::from_str(&text).unwrap();

@@ -68,6 +68,7 @@ pub(crate) use refit::next_refit_after;
 use refit::{settled, weighted_passes};
 pub use settings::{DeconvSettings, WeightedRounds};
 
+use crate::diagnostics::Figure;
 use crate::diagnostics::{DelayEstimate, Diagnostics};
 use crate::learner::Table;
 use stats::{LagStats, UNSEEN};
@@ -387,13 +388,13 @@ impl Deconvolver {
     pub fn diagnostics(&self) -> Diagnostics {
         Diagnostics {
             figures: vec![
-                ("delay/refits", self.refits as f64),
-                ("delay/cold_starts", self.cold_starts as f64),
-                ("delay/cold_start_wins", self.cold_wins as f64),
-                ("delay/rounds", self.rounds as f64),
-                ("delay/joint_drops", self.joint_drops as f64),
-                ("delay/joint_factorisations", self.joint_factorisations as f64),
-                ("learner/pairs_seen", self.stats.n() as f64),
+                (Figure::DelayRefits, self.refits as f64),
+                (Figure::DelayColdStarts, self.cold_starts as f64),
+                (Figure::DelayColdStartWins, self.cold_wins as f64),
+                (Figure::DelayRounds, self.rounds as f64),
+                (Figure::DelayJointDrops, self.joint_drops as f64),
+                (Figure::DelayJointFactorisations, self.joint_factorisations as f64),
+                (Figure::PairsSeen, self.stats.n() as f64),
             ],
             delay: Some(DelayEstimate::of_pmf(&self.pmf, self.median_se, self.estimates_delay())),
             reward_values: Vec::new(),

@@ -75,6 +75,7 @@ use rand::RngExt;
 use crate::decode::ValueDeconvolver;
 use crate::deconv::DeconvConfig;
 use crate::diagnostics::Diagnostics;
+use crate::diagnostics::Figure;
 use crate::learner::{Decision, Experience, Learner, Table, max_of};
 use crate::memory::Memory;
 use crate::params::Params;
@@ -468,13 +469,13 @@ impl Learner for DeconvModel {
 
     fn diagnostics(&self) -> Diagnostics {
         let mut d = self.deconv.diagnostics();
-        d.figures.push(("learner/value_max", max_of(&self.v)));
-        d.figures.push(("learner/probes", self.probes_taken as f64));
+        d.figures.push((Figure::ValueMax, max_of(&self.v)));
+        d.figures.push((Figure::Probes, self.probes_taken as f64));
         let known = (0..self.tries.len()).filter(|&x| self.known(x)).count();
-        d.figures.push(("learner/known_pairs", known as f64));
+        d.figures.push((Figure::KnownPairs, known as f64));
         if let Some(c) = self.confidence.as_ref() {
-            d.figures.push(("learner/info_needed", c.needed));
-            d.figures.push(("learner/info_per_visit", c.a0()));
+            d.figures.push((Figure::InfoNeeded, c.needed));
+            d.figures.push((Figure::InfoPerVisit, c.a0()));
         }
         d
     }
@@ -583,7 +584,7 @@ mod tests {
         let mut l = build_probe_world(explore, inside);
         let d = l.act(0, &mut rng);
         assert_eq!((d.action, d.explored, l.probe_due), (0, true, false));
-        assert_eq!(l.diagnostics().figure("learner/probes"), Some(1.0));
+        assert_eq!(l.diagnostics().figure(Figure::Probes), Some(1.0));
         let greedy = Params { epsilon: 0.0, ..explore };
         let mut l = build_probe_world(greedy, inside);
         for _ in 0..5 {
@@ -594,7 +595,7 @@ mod tests {
         for _ in 0..20 {
             assert!(l.act(0, &mut rng).explored && l.probe_due);
         }
-        assert_eq!(l.diagnostics().figure("learner/probes"), Some(0.0));
+        assert_eq!(l.diagnostics().figure(Figure::Probes), Some(0.0));
     }
 
     /// State 0: action 0 bumps (stays, −1), action 1 moves to state 1 (0); state 1's one
@@ -617,7 +618,7 @@ mod tests {
         assert_eq!((waits.action, waits.explored, l.probe_due), (0, false, true));
         let probe = l.act(0, &mut rng);
         assert_eq!((probe.action, probe.explored, l.probe_due), (0, true, false));
-        assert_eq!(l.diagnostics().figure("learner/probes"), Some(1.0));
+        assert_eq!(l.diagnostics().figure(Figure::Probes), Some(1.0));
         for probes in [
             Probes { rate: 1.0, precision: se * 2.0, steps: ProbeSteps::Greedy },
             Probes { rate: 0.0, precision: 1e-9, steps: ProbeSteps::Greedy },
