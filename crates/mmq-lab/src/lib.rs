@@ -15,6 +15,7 @@ pub mod exec;
 pub mod fields;
 pub mod grid_optimal;
 pub mod lock;
+pub mod metric;
 pub mod output;
 pub mod record;
 mod resolved;

@@ -9,6 +9,7 @@ use mmq_learn::{DelayEstimate, Diagnostics};
 use serde::{Deserialize, Serialize};
 
 use crate::config::RunConfig;
+use crate::metric::MetricId;
 use crate::runner::{SeedResult, describe};
 
 /// The machine-readable summary of a run (`summary.json`).
@@ -91,46 +92,47 @@ pub const CEILING_CUT: &str = "the ε-soft ceiling was not computed: the run was
 /// `delay/median_se` and `delay/median_cdf_se` (when known), `delay/pmf/KKK` (lag K, three
 /// digits), `delay/mean_est_s` and `delay/median_est_s` (time bins), and the decoded
 /// reward values as `reward/value/V`.
-pub fn diagnostics_entries(d: &Diagnostics) -> Vec<(String, f64)> {
+pub fn diagnostics_entries(d: &Diagnostics) -> Vec<(MetricId, f64)> {
     let mut m = Vec::new();
     if let Some(p) = &d.delay {
-        m.push(("delay/mean_est".to_string(), p.mean));
-        m.push(("delay/median_est".to_string(), p.median));
-        m.push(("delay/estimated".to_string(), f64::from(u8::from(p.estimated))));
-        push_median_se(&mut m, p, "");
+        m.push(("delay/mean_est".into(), p.mean));
+        m.push(("delay/median_est".into(), p.median));
+        m.push(("delay/estimated".into(), f64::from(u8::from(p.estimated))));
+        push_median_se(&mut m, p, None);
         for (k, x) in p.pmf.iter().enumerate() {
-            m.push((format!("delay/pmf/{k:03}"), *x));
+            m.push((format!("delay/pmf/{k:03}").into(), *x));
         }
         if let (Some(mean), Some(median)) = (p.mean_s(), p.median_s()) {
-            m.push(("delay/mean_est_s".to_string(), mean));
-            m.push(("delay/median_est_s".to_string(), median));
+            m.push(("delay/mean_est_s".into(), mean));
+            m.push(("delay/median_est_s".into(), median));
         }
     }
-    m.extend(d.figures.iter().map(|(k, v)| (k.name().to_string(), *v)));
+    m.extend(d.figures.iter().map(|(k, v)| (k.name().into(), *v)));
     for (v, &value) in d.reward_values.iter().enumerate() {
-        m.push((format!("reward/value/{v}"), value));
+        m.push((format!("reward/value/{v}").into(), value));
     }
     m
 }
 
 /// The standard errors of the median of `p`, when known, named with the suffix `at`.
-fn push_median_se(m: &mut Vec<(String, f64)>, p: &DelayEstimate, at: &str) {
+fn push_median_se(m: &mut Vec<(MetricId, f64)>, p: &DelayEstimate, at: Option<u64>) {
     if let Some(se) = p.median_se {
-        m.push((format!("delay/median_se{at}"), se.steps));
-        m.push((format!("delay/median_cdf_se{at}"), se.cdf));
+        let id = |name: &str| at.map_or_else(|| MetricId::named(name), |t| MetricId::at(name, t));
+        m.push((id("delay/median_se"), se.steps));
+        m.push((id("delay/median_cdf_se"), se.cdf));
     }
 }
 
 /// A seed's learner metrics: its final diagnostics ([`diagnostics_entries`]) and, from
 /// the samples taken during learning, the delay estimate at step T as
 /// `delay/mean_est@T`, `delay/median_est@T`, `delay/median_se@T`, `delay/median_cdf_se@T`.
-pub fn learner_entries(r: &SeedResult) -> Vec<(String, f64)> {
+pub fn learner_entries(r: &SeedResult) -> Vec<(MetricId, f64)> {
     let mut m = diagnostics_entries(&r.diagnostics);
     for s in &r.run.diagnostics {
         if let Some(p) = &s.diagnostics.delay {
-            m.push((format!("delay/mean_est@{}", s.step), p.mean));
-            m.push((format!("delay/median_est@{}", s.step), p.median));
-            push_median_se(&mut m, p, &format!("@{}", s.step));
+            m.push((MetricId::at("delay/mean_est", s.step), p.mean));
+            m.push((MetricId::at("delay/median_est", s.step), p.median));
+            push_median_se(&mut m, p, Some(s.step));
         }
     }
     m
@@ -138,7 +140,7 @@ pub fn learner_entries(r: &SeedResult) -> Vec<(String, f64)> {
 
 /// The per-seed metrics under their stable names: `optimum` is the world's optimal
 /// reward per step, `ceiling` its ε-soft ceiling (if known).
-pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTreeMap<String, f64> {
+pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTreeMap<MetricId, f64> {
     let mut m = BTreeMap::new();
     let steps = r.run.steps_done.max(1) as f64;
     m.insert("seed".into(), r.seed as f64);
@@ -163,7 +165,7 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTree
     }
     m.insert("time/sim_s".into(), r.run.sim_time_s);
     for (k, v) in ["moved", "wall", "goal", "timeout"].iter().zip(r.run.events) {
-        m.insert(format!("events/{k}"), v as f64);
+        m.insert(format!("events/{k}").into(), v as f64);
     }
     if let Some(rel) = r.relative() {
         m.insert("perf/relative".into(), rel);
@@ -190,7 +192,7 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTree
         m.insert(k, v);
     }
     for (k, v) in &r.env_stats {
-        m.insert(format!("env/{k}"), *v);
+        m.insert(format!("env/{k}").into(), *v);
     }
     m.insert("time/wall_s".into(), r.wall_time_s);
     m.insert("time/learn_s".into(), r.learn_time_s);
@@ -202,10 +204,10 @@ pub fn seed_metrics(r: &SeedResult, optimum: f64, ceiling: Option<f64>) -> BTree
 /// (non-finite values left out). Relative performance is summarised only when every seed
 /// has it (a mean over the seeds that happen to have one would mislead); otherwise the
 /// returned notes say why it is absent.
-pub fn aggregate(
-    seeds: &[&BTreeMap<String, f64>],
+pub fn aggregate<K: Ord + Clone + std::borrow::Borrow<str>>(
+    seeds: &[&BTreeMap<K, f64>],
     keep: impl Fn(&str) -> bool,
-) -> (BTreeMap<String, MeanCi>, Vec<String>) {
+) -> (BTreeMap<K, MeanCi>, Vec<String>) {
     const RELATIVE: &str = "perf/relative";
     let count = |key: &str| seeds.iter().filter(|m| m.contains_key(key)).count();
     let mut notes = Vec::new();
@@ -217,10 +219,12 @@ pub fn aggregate(
             seeds.len()
         ));
     }
-    let keys: std::collections::BTreeSet<&String> = seeds.iter().flat_map(|m| m.keys()).collect();
+    let keys: std::collections::BTreeSet<&K> = seeds.iter().flat_map(|m| m.keys()).collect();
     let mut mean = BTreeMap::new();
-    for k in keys.into_iter().filter(|k| keep(k) && (k.as_str() != RELATIVE || relative_whole)) {
-        let xs: Vec<f64> = seeds.iter().filter_map(|m| m.get(k).copied()).filter(|x| x.is_finite()).collect();
+    for k in keys.into_iter().filter(|k| keep((*k).borrow()) && ((*k).borrow() != RELATIVE || relative_whole))
+    {
+        let xs: Vec<f64> =
+            seeds.iter().filter_map(|m| m.get((*k).borrow()).copied()).filter(|x| x.is_finite()).collect();
         if !xs.is_empty() {
             mean.insert(k.clone(), mean_ci(&xs));
         }
@@ -252,6 +256,8 @@ impl Summary {
                 let mut metrics = seed_metrics(r, optimum, ceiling);
                 metrics.remove("seed");
                 metrics.remove("complete");
+                // summary.json names each metric by its text.
+                let metrics = metrics.into_iter().map(|(k, v)| (k.to_string(), v)).collect();
                 SeedEntry { seed: r.seed, complete: r.complete, error: r.failure.clone(), metrics }
             })
             .collect();

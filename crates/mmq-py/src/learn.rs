@@ -203,7 +203,8 @@ impl LearnerCore {
     /// Learner-specific figures now (its delay estimate among them), under the metric
     /// names of a run's summary.
     fn metrics(&self) -> Vec<(String, f64)> {
-        mmq_lab::summary::diagnostics_entries(&self.learner().diagnostics())
+        let entries = mmq_lab::summary::diagnostics_entries(&self.learner().diagnostics());
+        entries.into_iter().map(|(k, v)| (k.to_string(), v)).collect()
     }
 
     /// Steps observed so far.

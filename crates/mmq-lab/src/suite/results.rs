@@ -233,13 +233,13 @@ mod tests {
             ("steps", 200.0),
         ]
         .into_iter()
-        .map(|(k, v)| (k.to_string(), v))
+        .map(|(k, v)| (k.into(), v))
         .collect();
         let s = SeedScore::from_metrics(3, &m);
         assert_eq!(s.fraction_of_optimum, Some(0.5));
         assert_eq!(s.optimum_per_step, Some(0.5));
         assert_eq!(s.steps, Some(200));
-        let nan: Metrics = [("perf/fraction_of_optimum".to_string(), f64::NAN)].into_iter().collect();
+        let nan: Metrics = [("perf/fraction_of_optimum".into(), f64::NAN)].into_iter().collect();
         assert!(SeedScore::from_metrics(1, &nan).failed);
         let r = SuiteResults {
             format: FORMAT.into(),

@@ -24,7 +24,10 @@ pub struct MergeOutcome {
 
 pub(super) fn same_results(a: &Metrics, b: &Metrics) -> bool {
     let f = |m: &Metrics| -> Vec<(String, u64)> {
-        m.iter().filter(|(k, _)| is_result_metric(k)).map(|(k, v)| (k.clone(), v.to_bits())).collect()
+        m.iter()
+            .filter(|(k, _)| is_result_metric(k.as_str()))
+            .map(|(k, v)| (k.to_string(), v.to_bits()))
+            .collect()
     };
     f(a) == f(b)
 }

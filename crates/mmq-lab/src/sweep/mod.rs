@@ -68,7 +68,7 @@ pub const FIELDS: [&str; 14] = [
 ];
 
 /// Per-seed metrics under their stable names (see [`crate::summary::seed_metrics`]).
-pub type Metrics = BTreeMap<String, f64>;
+pub type Metrics = BTreeMap<crate::metric::MetricId, f64>;
 
 /// Largest number of jobs a spec may describe. Every cell is built in memory (about
 /// 1.3 KB each), so this also bounds what a short spec can make `mmq sweep` allocate:

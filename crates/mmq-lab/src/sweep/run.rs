@@ -13,6 +13,7 @@ use super::store::{finish_dir, is_finished, write_failed_job, write_job};
 use crate::batch::{BatchLearner, run_batch};
 use crate::error::LabError;
 use crate::exec::{Job, baselines_needed, run_jobs};
+use crate::metric::MetricId;
 use crate::output::write_atomic;
 use crate::runner::{Control, LearnerFactory, SeedResult, Trajectory, memory_limit};
 use crate::summary::seed_metrics;
@@ -88,7 +89,7 @@ pub struct SweepOutcome {
 /// per step in each part, as `curve/<last step of the part>`. The spec checks that the
 /// parts end on rows of the curve; a part without its row (an interrupted run) is left
 /// out.
-pub(super) fn curve_points(run: &Trajectory, steps: u64, points: u64) -> Vec<(String, f64)> {
+pub(super) fn curve_points(run: &Trajectory, steps: u64, points: u64) -> Vec<(MetricId, f64)> {
     let cum_at = |t: u64| -> Option<f64> {
         if t == 0 {
             return Some(0.0);
@@ -99,7 +100,7 @@ pub(super) fn curve_points(run: &Trajectory, steps: u64, points: u64) -> Vec<(St
     for k in 1..=points {
         let (t0, t1) = ((k - 1) * steps / points, k * steps / points);
         if let (Some(a), Some(b)) = (cum_at(t0), cum_at(t1)) {
-            out.push((format!("curve/{t1}"), (b - a) / (t1 - t0) as f64));
+            out.push((MetricId::curve(t1), (b - a) / (t1 - t0) as f64));
         }
     }
     out
@@ -386,7 +387,8 @@ mod tests {
             ..Trajectory::default()
         };
         let p = curve_points(&run, 400, 2);
-        assert_eq!(p, [("curve/200".to_string(), 0.15), ("curve/400".to_string(), 0.2)]);
+        assert_eq!(p, [(MetricId::curve(200), 0.15), (MetricId::curve(400), 0.2)]);
+        assert_eq!(p.iter().map(|x| x.0.curve_step()).collect::<Vec<_>>(), [Some(200), Some(400)]);
         // An interrupted run (no row at 400) has only its first point.
         let short = Trajectory { curve: run.curve[..3].to_vec(), ..Trajectory::default() };
         assert_eq!(curve_points(&short, 400, 2).len(), 1);

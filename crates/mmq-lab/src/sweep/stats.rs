@@ -8,6 +8,7 @@ use mmq_core::stats::MeanCi;
 
 use super::Metrics;
 use super::plan::{Plan, PlanCell};
+use crate::metric::MetricId;
 
 /// Whether a metric is a result (a column of `results.csv`, a statistic of a cell):
 /// run-to-run timings and the bookkeeping keys are not.
@@ -23,7 +24,7 @@ pub struct CellStats {
     /// Finished seeds.
     pub n: usize,
     /// Per metric (results only, non-finite values left out).
-    pub metrics: BTreeMap<String, MeanCi>,
+    pub metrics: BTreeMap<MetricId, MeanCi>,
     /// Why a metric is absent (relative performance where a baseline earned ≤ 0).
     pub notes: Vec<String>,
 }

@@ -14,6 +14,7 @@ use super::spec::SweepSpec;
 use super::stats::is_result_metric;
 use super::{FORMAT, MAX_JOB_BYTES, MAX_MANIFEST_BYTES, Metrics};
 use crate::error::LabError;
+use crate::metric::{MetricId, MetricKind};
 use crate::output::{csv_field, csv_number, write_atomic};
 
 /// `sweep.json`: the plan and the status of one output directory.
@@ -44,7 +45,9 @@ pub struct Manifest {
 /// in Rust's shortest round-trip form (`NaN`, `inf` included), so they read back bit
 /// for bit; the `seed` metric is the job's seed as an integer (exact up to 2^64 − 1).
 /// A job whose learner failed ([`mmq_learn::Learner::failure`]) is finished too: its
-/// metrics are `seed` and `failed` (1), and `error` says why.
+/// metrics are `seed` and `failed` (1), and `error` says why. Metrics with a step
+/// ([`MetricId`]) are stored apart with their step as a number: the learning curve's
+/// points as `[step, value]` and the learner's sampled figures as `[name, step, value]`.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct StoredJob {
@@ -54,6 +57,10 @@ struct StoredJob {
     seed: u64,
     params: BTreeMap<String, String>,
     metrics: BTreeMap<String, String>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    curve: Vec<(u64, String)>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    samples: Vec<(String, u64, String)>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     error: Option<String>,
     /// The seed's record, when the spec keeps them ([`SweepSpec::with_records`]).
@@ -72,7 +79,28 @@ pub(super) fn read_job(dir: &Path, plan: &Plan, j: usize) -> Option<Metrics> {
 }
 
 fn metrics_of(s: &StoredJob) -> Option<Metrics> {
-    s.metrics.iter().map(|(k, v)| v.parse::<f64>().ok().map(|x| (k.clone(), x))).collect()
+    let number = |v: &str| v.parse::<f64>().ok();
+    let named = s.metrics.iter().map(|(k, v)| Some((legacy_id(k), number(v)?)));
+    let curve = s.curve.iter().map(|(t, v)| Some((MetricId::curve(*t), number(v)?)));
+    let samples = s.samples.iter().map(|(k, t, v)| Some((MetricId::at(k, *t), number(v)?)));
+    named.chain(curve).chain(samples).collect()
+}
+
+/// The id of a metric stored by name. Job files written by versions before metric ids
+/// were typed hold the curve's points and the learner's samples among the named
+/// metrics (`curve/2500`, `delay/median_est@10000`); those alone are read from their
+/// text, so that their stores still report their curves.
+fn legacy_id(name: &str) -> MetricId {
+    let step = |t: &str| t.parse::<u64>().ok().filter(|_| t.bytes().all(|b| b.is_ascii_digit()));
+    if let Some(t) = name.strip_prefix("curve/").and_then(step) {
+        return MetricId::curve(t);
+    }
+    if let Some((k, t)) = name.rsplit_once('@')
+        && let Some(t) = step(t)
+    {
+        return MetricId::at(k, t);
+    }
+    MetricId::named(name)
 }
 
 /// Whether job `j` of `spec` is finished in `dir`: its file is there, belongs to this
@@ -105,7 +133,7 @@ fn read_stored(dir: &Path, plan: &Plan, j: usize) -> Option<StoredJob> {
 /// Writes job `j` as failed with `error`: finished, its metrics `seed` and `failed`.
 pub(super) fn write_failed_job(dir: &Path, plan: &Plan, j: usize, error: &str) -> Result<(), LabError> {
     let (_, seed) = plan.job(j);
-    let metrics: Metrics = [("seed".to_string(), seed as f64), ("failed".to_string(), 1.0)].into();
+    let metrics: Metrics = [("seed".into(), seed as f64), ("failed".into(), 1.0)].into();
     write_stored(dir, plan, j, &metrics, Some(error), None)
 }
 
@@ -138,12 +166,18 @@ fn write_stored(
         params: plan.fields.iter().cloned().zip(cell.params.iter().cloned()).collect(),
         metrics: metrics
             .iter()
+            .filter(|(k, _)| k.kind() == MetricKind::Named)
             .map(|(k, v)| {
                 // The seed as the integer it is: an f64 holds seeds exactly only below
                 // 2^53 (where the two texts are the same).
-                let text = if k == "seed" { seed.to_string() } else { encode(*v) };
-                (k.clone(), text)
+                let text = if k.as_str() == "seed" { seed.to_string() } else { encode(*v) };
+                (k.to_string(), text)
             })
+            .collect(),
+        curve: metrics.iter().filter_map(|(k, v)| Some((k.curve_step()?, encode(*v)))).collect(),
+        samples: metrics
+            .iter()
+            .filter_map(|(k, v)| k.sample().map(|(name, t)| (name.to_string(), t, encode(*v))))
             .collect(),
         error: error.map(str::to_string),
         record,
@@ -213,7 +247,7 @@ pub fn results_csv(plan: &Plan, results: &[Option<Metrics>]) -> (String, usize) 
         .iter()
         .flatten()
         .flat_map(|m| m.keys())
-        .map(String::as_str)
+        .map(MetricId::as_str)
         .filter(|k| is_result_metric(k))
         .collect();
     let axes: Vec<usize> = plan.axes.iter().filter_map(|a| plan.fields.iter().position(|f| f == a)).collect();
@@ -297,7 +331,7 @@ mod tests {
         let cell = PlanCell { id: "c0".into(), params: vec![], seeds: None };
         for seed in [7u64, (1 << 53) + 1, u64::MAX] {
             let plan = Plan::new("s".into(), String::new(), vec![], vec![], vec![seed], vec![cell.clone()]);
-            let metrics: Metrics = [("seed".to_string(), seed as f64), ("steps".into(), 2000.0)].into();
+            let metrics: Metrics = [("seed".into(), seed as f64), ("steps".into(), 2000.0)].into();
             write_job(&dir, &plan, 0, &metrics, None).unwrap();
             let text = std::fs::read_to_string(plan.job_path(&dir, 0)).unwrap();
             let stored: StoredJob = serde_json::from_str(&text).unwrap();
@@ -308,6 +342,44 @@ mod tests {
             }
             assert_eq!(read_job(&dir, &plan, 0), Some(metrics));
         }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The curve's points and the learner's samples are stored apart, their steps as
+    /// numbers, and read back as the same typed ids; a job file of an earlier version,
+    /// which holds them among the named metrics, reads back the same.
+    #[test]
+    fn metrics_with_steps_are_stored_apart_and_read_back_typed() {
+        let dir = std::env::temp_dir().join(format!("mmq-store-typed-{}", std::process::id()));
+        let cell = PlanCell { id: "c0".into(), params: vec![], seeds: None };
+        let plan = Plan::new("s".into(), String::new(), vec![], vec![], vec![4], vec![cell]);
+        let metrics: Metrics = [
+            ("seed".into(), 4.0),
+            (MetricId::curve(2500), 0.25),
+            (MetricId::at("delay/median_est", 10_000), 12.5),
+            ("perf/relative".into(), 0.75),
+        ]
+        .into();
+        write_job(&dir, &plan, 0, &metrics, None).unwrap();
+        let text = std::fs::read_to_string(plan.job_path(&dir, 0)).unwrap();
+        let stored: StoredJob = serde_json::from_str(&text).unwrap();
+        assert_eq!(stored.metrics.keys().collect::<Vec<_>>(), ["perf/relative", "seed"]);
+        assert_eq!(stored.curve, [(2500, "0.25".to_string())]);
+        assert_eq!(stored.samples, [("delay/median_est".to_string(), 10_000, "12.5".to_string())]);
+        let back = read_job(&dir, &plan, 0).unwrap();
+        assert_eq!(back, metrics);
+        let steps: Vec<Option<u64>> = back.keys().map(MetricId::curve_step).collect();
+        assert_eq!(steps, [Some(2500), None, None, None]);
+        // An earlier version's file: every metric by its text.
+        let legacy = text.replace(
+            "\"metrics\": {",
+            "\"metrics\": {\n    \"curve/2500\": \"0.25\",\n    \"delay/median_est@10000\": \"12.5\",",
+        );
+        let legacy: StoredJob = serde_json::from_str(&legacy).unwrap();
+        let legacy = StoredJob { curve: Vec::new(), samples: Vec::new(), ..legacy };
+        let old = metrics_of(&legacy).unwrap();
+        assert_eq!(old, metrics);
+        assert_eq!(old.keys().map(MetricId::curve_step).collect::<Vec<_>>(), steps);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

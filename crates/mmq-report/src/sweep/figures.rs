@@ -77,8 +77,8 @@ pub(super) fn gap_figure(
     Ok(true)
 }
 
-/// A learning-curve figure per setting, a series per learner, from the `curve/<step>`
-/// metrics; `(caption, file)`.
+/// A learning-curve figure per setting, a series per learner, from the learning-curve
+/// metrics (their steps as stored, [`mmq_lab::metric::MetricId::curve_step`]); `(caption, file)`.
 pub(super) fn curve_figures(
     stats: &[CellStats],
     sets: &[(String, Vec<(String, usize)>)],
@@ -93,7 +93,7 @@ pub(super) fn curve_figures(
             let mut pts: Vec<(f64, MeanCi)> = st
                 .metrics
                 .iter()
-                .filter_map(|(k, m)| Some((k.strip_prefix("curve/")?.parse::<f64>().ok()?, *m)))
+                .filter_map(|(k, m)| Some((k.curve_step()? as f64, *m)))
                 .filter(|p| p.1.mean.is_finite())
                 .collect();
             if pts.is_empty() {
@@ -152,7 +152,7 @@ pub(super) fn heat_maps(
             for &c in cells {
                 let Some(st) = stats.iter().find(|s| s.cell == c) else { continue };
                 for (k, m) in &st.metrics {
-                    let Some(rc) = k.strip_prefix(&prefix) else { continue };
+                    let Some(rc) = k.as_str().strip_prefix(&prefix) else { continue };
                     let Some((r, col)) = rc.strip_prefix('r').and_then(|x| x.split_once('c')) else {
                         continue;
                     };

@@ -31,7 +31,7 @@ pub fn summary_csv(plan: &Plan, stats: &[CellStats]) -> String {
             let _ = writeln!(
                 out,
                 ",{},{},{},{},{}",
-                csv_field(k),
+                csv_field(k.as_str()),
                 m.n,
                 csv_number(m.mean),
                 csv_number(m.ci95),
