@@ -524,21 +524,19 @@ fn delay_window(
     rep.csv(&format!("fig6-delay{sfx}.csv"), &csv)
 }
 
-/// Figs. 7–12 from the first seed of each learner (a representative run, as in the paper).
+/// Figs. 7–12 from the first seed of each learner (a representative run, as in the paper;
+/// a study keeps the maps of each cell's first seed only).
 fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Doc, sfx: &str) -> Result<(), ReportError> {
-    if mmq.results.is_empty() || q.results.is_empty() {
-        // Interrupted before a seed of each learner started: nothing to map.
+    let mapped = |g: &Group| g.results.iter().find(|r| r.has_maps()).cloned();
+    let (Some(m), Some(qr)) = (mapped(mmq), mapped(q)) else {
+        // Interrupted before the first seed of each learner finished: nothing to map.
         let _ = writeln!(
             rep.md,
-            "\n### Figs. 7–12{sfx}: not drawn (the runs were interrupted before they began)\n"
+            "\n### Figs. 7–12{sfx}: not drawn (the runs were interrupted before the first seed of each learner finished)\n"
         );
         return Ok(());
-    }
-    let _ = writeln!(
-        rep.md,
-        "\n### Figs. 7–12{sfx}: visits and policies after learning (seed {})\n",
-        mmq.results[0].seed
-    );
+    };
+    let _ = writeln!(rep.md, "\n### Figs. 7–12{sfx}: visits and policies after learning (seed {})\n", m.seed);
     differs(
         rep,
         "the paper shows one run; these maps are of the first seed. Its eq. 8 (the probabilistic policy) is not \
@@ -546,8 +544,7 @@ fn maps(world: &World, mmq: &Group, q: &Group, rep: &mut Doc, sfx: &str) -> Resu
          (docs/algorithms/deviations.md).",
     );
     let mut csv = String::from("learner,cell,row,col,visits,greedy,p_N,p_E,p_S,p_W\n");
-    for (g, name, figs) in [(mmq, "MMQ", [7, 8, 9]), (q, "Q-learning", [10, 11, 12])] {
-        let r = &g.results[0];
+    for (r, name, figs) in [(&m, "MMQ", [7, 8, 9]), (&qr, "Q-learning", [10, 11, 12])] {
         let cells = world.num_cells();
         let visits: Vec<f64> = (0..cells).map(|c| r.visits.get(c).copied().unwrap_or(0) as f64).collect();
         let h = GridHeatmap::new(

@@ -76,7 +76,9 @@ pub type Metrics = BTreeMap<crate::metric::MetricId, f64>;
 pub const MAX_JOBS: usize = 1_000_000;
 /// Largest sweep spec file read, bytes: a spec is a small text file.
 pub const MAX_SPEC_BYTES: u64 = 1 << 20;
-/// Largest job file read, bytes: one job's metrics are a few KiB.
-pub const MAX_JOB_BYTES: u64 = 1 << 20;
+/// Largest job file read or written, bytes: one job's metrics are a few KiB, and a
+/// study's seed record (`record.rs`) tens of KiB on the paper's worlds (the maps of a
+/// 9×9 world's first seed about 15 KiB).
+pub const MAX_JOB_BYTES: u64 = 16 << 20;
 /// Largest `sweep.json` read, bytes: the plan of the largest accepted sweep.
 pub const MAX_MANIFEST_BYTES: u64 = 512 << 20;

@@ -22,17 +22,20 @@ pub struct SeedRecord {
     /// Its undelayed baseline's run (when the setting has one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub baseline: Option<RunRecord>,
-    /// Visits of every state during learning.
+    /// Visits of every state during learning (empty without maps).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub visits: Vec<u64>,
     /// Average reward per step of the greedy policy from `S`.
     #[serde(with = "text")]
     pub greedy_per_step: f64,
-    /// The first states of the greedy evaluation, from `S`.
+    /// The first states of the greedy evaluation, from `S` (empty without maps).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub greedy_path: Vec<usize>,
-    /// Greedy actions of every state as a bit set (all maximisers).
+    /// Greedy actions of every state as a bit set, all maximisers (empty without maps).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub policy_arrows: Vec<u8>,
-    /// The probabilistic policy of every state.
-    #[serde(with = "text_rows")]
+    /// The probabilistic policy of every state (empty without maps).
+    #[serde(default, skip_serializing_if = "Vec::is_empty", with = "text_rows")]
     pub policy_probs: Vec<Vec<f64>>,
     /// Wall-clock seconds of the seed.
     #[serde(with = "text")]
@@ -86,8 +89,9 @@ impl RunRecord {
 }
 
 impl SeedRecord {
-    /// The record of a finished seed.
-    pub fn of(r: &SeedResult) -> Self {
+    /// The record of a finished seed, with its maps (visits, policies, the greedy path)
+    /// when `maps` (a study keeps them for each cell's first seed, which Figs. 7–12 draw).
+    pub fn of(r: &SeedResult, maps: bool) -> Self {
         let delay_samples = r
             .run
             .diagnostics
@@ -98,11 +102,11 @@ impl SeedRecord {
             seed: r.seed,
             run: RunRecord::of(&r.run),
             baseline: r.baseline.as_ref().map(RunRecord::of),
-            visits: r.run.visits.clone(),
+            visits: if maps { r.run.visits.clone() } else { Vec::new() },
             greedy_per_step: r.greedy_per_step,
-            greedy_path: r.greedy_path.clone(),
-            policy_arrows: r.policy_arrows.clone(),
-            policy_probs: r.policy_probs.clone(),
+            greedy_path: if maps { r.greedy_path.clone() } else { Vec::new() },
+            policy_arrows: if maps { r.policy_arrows.clone() } else { Vec::new() },
+            policy_probs: if maps { r.policy_probs.clone() } else { Vec::new() },
             wall_time_s: r.wall_time_s,
             delay_samples,
             delay_estimated: r.diagnostics.delay.as_ref().is_some_and(|d| d.estimated),
@@ -122,6 +126,11 @@ impl SeedRecord {
     /// Earned reward per step.
     pub fn earned_per_step(&self) -> f64 {
         self.run.earned_per_step()
+    }
+
+    /// Whether it holds the seed's maps (visits, policies, the greedy path).
+    pub fn has_maps(&self) -> bool {
+        !self.policy_arrows.is_empty()
     }
 
     /// The learner's figure `f` at the end, if it reports it.

@@ -256,7 +256,9 @@ fn run_sweep_how(
         } else if r.complete {
             let mut metrics = seed_metrics(&r, optimum[spec.world_of[c]], ceilings[c]);
             metrics.extend(curve_points(&r.run, spec.config(c).steps, spec.curve));
-            let record = spec.keeps_records().then(|| super::record::SeedRecord::of(&r));
+            // Figs. 7–12 map a cell's first seed: only it keeps its maps.
+            let maps = plan.seeds_of(c).first() == Some(&seed);
+            let record = spec.keeps_records().then(|| super::record::SeedRecord::of(&r, maps));
             write_job(out, plan, j, &metrics, record)?;
         } else {
             return Ok(());

@@ -183,6 +183,19 @@ fn write_stored(
         record,
     };
     let text = serde_json::to_string_pretty(&s).unwrap_or_default() + "\n";
+    // A file larger than a reader takes would never count as finished: refuse it here.
+    if text.len() as u64 > MAX_JOB_BYTES {
+        return Err(LabError::Config {
+            file: plan.job_path(dir, j).display().to_string(),
+            message: format!(
+                "this job's results take {:.1} MiB, more than the {} MiB a job file may hold; the seed \
+                 records a study keeps (learning curves, the maps of a cell's first seed) are for worlds of \
+                 a few thousand cells: run the spec with `mmq sweep`, which keeps the metrics only",
+                text.len() as f64 / f64::from(1u32 << 20),
+                MAX_JOB_BYTES >> 20
+            ),
+        });
+    }
     write_renamed(&plan.job_path(dir, j), text.as_bytes())
 }
 
@@ -380,6 +393,44 @@ mod tests {
         let old = metrics_of(&legacy).unwrap();
         assert_eq!(old, metrics);
         assert_eq!(old.keys().map(MetricId::curve_step).collect::<Vec<_>>(), steps);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// A job file larger than a reader takes is refused when written, naming the file:
+    /// it would never count as finished, and its job would run again and again.
+    #[test]
+    fn a_job_too_large_to_read_back_is_refused_when_written() {
+        use crate::trajectory::{CurveRow, Trajectory};
+        let dir = std::env::temp_dir().join(format!("mmq-store-large-{}", std::process::id()));
+        let cell = PlanCell { id: "c0".into(), params: vec![], seeds: None };
+        let plan = Plan::new("s".into(), String::new(), vec![], vec![], vec![1], vec![cell]);
+        let row = CurveRow { step: 1, earned: 0.1, received: 0.2, earned_cum: 0.3, received_cum: 0.4 };
+        let big = SeedRecord::of(
+            &crate::runner::SeedResult {
+                seed: 1,
+                complete: true,
+                run: Trajectory { curve: vec![row; 200_000], ..Trajectory::default() },
+                greedy_per_step: 0.0,
+                greedy_path: Vec::new(),
+                policy_arrows: Vec::new(),
+                policy_probs: Vec::new(),
+                values: Vec::new(),
+                diagnostics: Default::default(),
+                env_stats: Vec::new(),
+                tables: Vec::new(),
+                baseline: None,
+                baseline_greedy_per_step: None,
+                reference: None,
+                wall_time_s: 0.0,
+                learn_time_s: 0.0,
+                failure: None,
+            },
+            false,
+        );
+        let metrics: Metrics = [("seed".into(), 1.0)].into();
+        let e = write_job(&dir, &plan, 0, &metrics, Some(big)).unwrap_err().to_string();
+        assert!(e.contains("seed-1.json") && e.contains("MiB") && e.contains("mmq sweep"), "{e}");
+        assert!(!plan.job_path(&dir, 0).exists());
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
