@@ -51,6 +51,7 @@ impl Budget {
     /// budget, its jobs keeping their seeds' records. The spec as written is checked
     /// first, so that its errors name its own lines.
     pub fn spec(&self, folder: Option<&Path>, name: &str) -> Result<SweepSpec, LabError> {
+        self.check()?;
         let (text, file) = super::spec_text(folder, name)?;
         let written = SweepSpec::parse(&text, &file)?;
         if self.is_spec() {
@@ -64,11 +65,34 @@ impl Budget {
             message: format!("cannot write the spec at this budget: {e}"),
         })?;
         SweepSpec::parse(&budgeted, &file)
-            .map_err(|e| LabError::Config {
-                file: file.display().to_string(),
-                message: format!("at the budget asked for ({}): {e}", self.describe()),
+            .map_err(|e| {
+                // The error's line is the rewritten text's: name the field alone.
+                let (text, name) = (e.to_string(), file.display().to_string());
+                let field_first = text
+                    .strip_prefix(&format!("{name}:"))
+                    .and_then(|rest| rest.split_once(": "))
+                    .map_or(text.as_str(), |(_, m)| m);
+                LabError::Config {
+                    file: name.clone(),
+                    message: format!("at the budget asked for ({}): {field_first}", self.describe()),
+                }
             })
             .map(SweepSpec::with_records)
+    }
+
+    /// Refuses flags no spec could run: no seeds, no steps, more than a run takes.
+    pub fn check(&self) -> Result<(), LabError> {
+        if let Some(n) = self.seeds.filter(|n| !(1..=1_000_000).contains(n)) {
+            return Err(LabError::param("seeds", n, "use a number of seeds in 1..=1000000"));
+        }
+        if let Some(n) = self.steps.filter(|n| !(1..=crate::config::MAX_STEPS).contains(n)) {
+            return Err(LabError::param(
+                "steps",
+                n,
+                "use a number of decision steps in 1..=10^10, e.g. 150000",
+            ));
+        }
+        Ok(())
     }
 
     /// The flags this budget stands for, as a message names them.
@@ -270,5 +294,32 @@ mod tests {
         assert_eq!(doc["seeds"].as_integer(), Some(3));
         let steps: Vec<i64> = doc["steps"].as_array().unwrap().iter().filter_map(Value::as_integer).collect();
         assert_eq!(steps, [20, 100]);
+    }
+
+    /// Flags no spec could run are refused by their field before a spec is read; an
+    /// error the budget causes in a spec names the spec and the field, not a line of the
+    /// rewritten text.
+    #[test]
+    fn bad_budgets_are_refused_by_their_field() {
+        for (b, field) in [
+            (Budget { seeds: Some(0), ..Budget::default() }, "`seeds` = 0"),
+            (Budget { steps: Some(0), ..Budget::default() }, "`steps` = 0"),
+            (Budget { steps: Some(u64::MAX), ..Budget::default() }, "`steps` = 18446744073709551615"),
+        ] {
+            let e = b.spec(None, "paper-fig6").unwrap_err();
+            assert!(e.is_input_error() && e.to_string().starts_with(field), "{e}");
+        }
+        let d = tempfile::tempdir().unwrap();
+        let f6 = super::super::SPECS.iter().find(|s| s.0 == "paper-fig6").unwrap().1;
+        // A window the budget shrinks below what `curve` needs is fine (curve is dropped),
+        // but a spec whose steps the rule scales to nothing is refused, naming `steps`.
+        let tiny = f6
+            .replace("steps = 150000", "steps = 4")
+            .replace("window = 2500", "window = 1")
+            .replace("curve = 60\n", "");
+        std::fs::write(d.path().join("paper-fig6.toml"), tiny).unwrap();
+        let e = Budget { quick: true, ..Budget::default() }.spec(Some(d.path()), "paper-fig6").unwrap_err();
+        let e = e.to_string();
+        assert!(e.contains("paper-fig6.toml") && e.contains("(--quick): steps: 0 is not accepted"), "{e}");
     }
 }
