@@ -223,126 +223,7 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
         return Ok(done);
     }
     if !headline.is_empty() {
-        let c = &headline[0].1[0].cfg;
-        let max_delay = c.learner.settings.max_delay().map_or(String::new(), |m| format!(", λ̂max = {m}"));
-        let mut t = format!(
-            "\n## Headline (Fig. 6 and Section VII-A): {}, {}{max_delay}, α = {}, γ = {}\n\n\
-             | quantity | paper | reference | ",
-            axes::world_size_of(c)?,
-            axes::delay_words(c),
-            c.learner.params.alpha,
-            c.learner.params.gamma
-        );
-        // The paper's values where every column ran its setting; the reference's where
-        // also at the reference's ε 0.01 and q0 20.
-        let paper_setting = headline.iter().all(|h| fig6_is_theirs(&h.1));
-        let reference_setting = paper_setting
-            && headline.iter().all(|h| {
-                h.1.iter().all(|g| (g.cfg.learner.params.epsilon, g.cfg.learner.params.q0) == (0.01, 20.0))
-            });
-        for (env, g, _) in &headline {
-            let _ =
-                write!(t, "ours, {} ({} seeds × {} steps) | ", env.name(), g[0].cfg.seeds, g[0].cfg.steps);
-        }
-        t.push_str("\n|---|---|---|");
-        for _ in &headline {
-            t.push_str("---|");
-        }
-        t.push('\n');
-        let rows: [HeadlineRow; 8] = [
-            (
-                "MMQ relative performance",
-                "≈ 95 %",
-                "99 ± 3 % (ε 0.01, q0 20)",
-                Box::new(|g, _| pct(&g[0].relative())),
-            ),
-            ("Q-learning relative performance", "≈ 0 %", "−4 %", Box::new(|g, _| pct(&g[1].relative()))),
-            (
-                "MMQ fraction of optimum (learning)",
-                "95 % of optimal",
-                "—",
-                Box::new(|g, o| pct(&g[0].fraction(o))),
-            ),
-            (
-                "MMQ fraction of the ε-soft ceiling (learning)",
-                "—",
-                "—",
-                Box::new(|g, _| {
-                    let c = g[0]
-                        .cfg
-                        .load_world()
-                        .ok()
-                        .and_then(|w| mmq_lab::summary::ceiling_per_step(&g[0].cfg, &w));
-                    c.map_or("—".into(), |c| pct(&g[0].fraction_of_ceiling(c)))
-                }),
-            ),
-            (
-                "MMQ regret against the optimum (reward)",
-                "—",
-                "—",
-                Box::new(|g, o| crate::format::mean_num(&g[0].regret(o), 0)),
-            ),
-            (
-                "MMQ greedy evaluation (reward/step)",
-                "0.59 (optimum 10/17)",
-                "0.41–0.55",
-                Box::new(|g, _| num(&g[0].greedy())),
-            ),
-            ("Q greedy evaluation (reward/step)", "0.0", "—", Box::new(|g, _| num(&g[1].greedy()))),
-            (
-                "undelayed Q-learning (reward/step)",
-                "—",
-                "—",
-                Box::new(|g, _| {
-                    let xs: Vec<f64> = g[0]
-                        .results
-                        .iter()
-                        .filter_map(|r| r.baseline.as_ref())
-                        .map(study::RunRecord::earned_per_step)
-                        .collect();
-                    num(&mmq_core::stats::mean_ci(&xs))
-                }),
-            ),
-        ];
-        for (label, paper_v, reference, f) in rows.iter() {
-            let (paper_v, reference) =
-                (theirs::only_if(paper_setting, paper_v), theirs::only_if(reference_setting, reference));
-            let _ = write!(t, "| {label} | {paper_v} | {reference} | ");
-            for (_, g, o) in &headline {
-                let _ = write!(t, "{} | ", f(g, *o));
-            }
-            t.push('\n');
-        }
-        if !paper_setting {
-            let _ = writeln!(
-                t,
-                "\nThe paper's and the reference's values are \"—\": {}",
-                theirs::variant_note(
-                    "MMQ and Q-learning on paper-9x9 under Poisson λ = 13, λ̂max = 50, α 0.1, γ 0.9"
-                )
-            );
-        }
-        let horizon = headline[0].1[0].cfg.steps;
-        let _ = writeln!(
-            t,
-            "\n— : absent. Relative performance is absent where the undelayed baseline earned ≤ 0 in some seed (a \
-             ratio to it has no meaning; the regret and the fraction of the ε-soft ceiling still say how well the learner did).\n\n\
-             Setting of Fig. 6: ε = {}, q0 = {} (the paper states neither; see the sensitivity table and docs/reproduction.md).\n\n\
-             **Horizon.** Every number here is at {horizon} steps (the paper's horizon for Fig. 6 is 150,000). Relative performance \
-             depends on it: the denominator, undelayed Q-learning with the same ε and q0, is itself still learning \
-             (slowly with q0 = 20), so the ratio falls as the baseline catches up: see \"Relative performance \
-             depends on the horizon\" below. The fraction of the ε-soft ceiling (the best any policy exploring \
-             with this ε can earn) and the regret do not have a moving denominator.\n\n\
-             **The robot column**, where present, is the same experiment on the rapier2d robot with its default \
-             (ideal) profile: its controllers close the loop on the true pose, so with noise off its transitions are \
-             the grid's exactly and, with the same seeds and steps, its numbers equal the grid's; the robot's realistic profile (odometry and \
-             localisation) is the one that differs (docs/robot.md).",
-            headline[0].1[0].cfg.learner.params.epsilon, headline[0].1[0].cfg.learner.params.q0
-        );
-        // The headline goes first, right after the introduction.
-        let intro_end = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
-        let intro_end = rep.md[intro_end..].find("\n\n").map_or(rep.md.len(), |i| intro_end + i + 2);
-        rep.md.insert_str(intro_end, &t);
+        headline_section(&mut rep, &headline)?;
     }
     let _ = writeln!(rep.md, "\n---\nWall time: {:.1} s.", clock.elapsed().as_secs_f64());
     if stop.load(std::sync::atomic::Ordering::SeqCst) {
@@ -360,6 +241,131 @@ pub fn paper(a: &PaperRequest, stop: &AtomicBool, prog: &dyn Progress) -> Result
     let done = PaperOutcome { report, files: rep.files.len() + 1, wall_s: clock.elapsed().as_secs_f64() };
     prog.say(&format!("wrote {} ({} files) in {:.1} s\n", done.report.display(), done.files, done.wall_s));
     Ok(done)
+}
+
+/// The headline table (Fig. 6 and Section VII-A), one column per fidelity that ran,
+/// inserted after the report's introduction.
+fn headline_section(rep: &mut Doc, headline: &[(EnvKind, Vec<Group>, f64)]) -> Result<(), ReportError> {
+    let c = &headline[0].1[0].cfg;
+    let max_delay = c.learner.settings.max_delay().map_or(String::new(), |m| format!(", λ̂max = {m}"));
+    let mut t = format!(
+        "\n## Headline (Fig. 6 and Section VII-A): {}, {}{max_delay}, α = {}, γ = {}\n\n\
+         | quantity | paper | reference | ",
+        axes::world_size_of(c)?,
+        axes::delay_words(c),
+        c.learner.params.alpha,
+        c.learner.params.gamma
+    );
+    // The paper's values where every column ran its setting; the reference's where
+    // also at the reference's ε 0.01 and q0 20.
+    let paper_setting = headline.iter().all(|h| fig6_is_theirs(&h.1));
+    let reference_setting = paper_setting
+        && headline.iter().all(|h| {
+            h.1.iter().all(|g| (g.cfg.learner.params.epsilon, g.cfg.learner.params.q0) == (0.01, 20.0))
+        });
+    for (env, g, _) in headline {
+        let _ = write!(t, "ours, {} ({} seeds × {} steps) | ", env.name(), g[0].cfg.seeds, g[0].cfg.steps);
+    }
+    t.push_str("\n|---|---|---|");
+    for _ in headline {
+        t.push_str("---|");
+    }
+    t.push('\n');
+    let rows: [HeadlineRow; 8] = [
+        (
+            "MMQ relative performance",
+            "≈ 95 %",
+            "99 ± 3 % (ε 0.01, q0 20)",
+            Box::new(|g, _| pct(&g[0].relative())),
+        ),
+        ("Q-learning relative performance", "≈ 0 %", "−4 %", Box::new(|g, _| pct(&g[1].relative()))),
+        (
+            "MMQ fraction of optimum (learning)",
+            "95 % of optimal",
+            "—",
+            Box::new(|g, o| pct(&g[0].fraction(o))),
+        ),
+        (
+            "MMQ fraction of the ε-soft ceiling (learning)",
+            "—",
+            "—",
+            Box::new(|g, _| {
+                let c = g[0]
+                    .cfg
+                    .load_world()
+                    .ok()
+                    .and_then(|w| mmq_lab::summary::ceiling_per_step(&g[0].cfg, &w));
+                c.map_or("—".into(), |c| pct(&g[0].fraction_of_ceiling(c)))
+            }),
+        ),
+        (
+            "MMQ regret against the optimum (reward)",
+            "—",
+            "—",
+            Box::new(|g, o| crate::format::mean_num(&g[0].regret(o), 0)),
+        ),
+        (
+            "MMQ greedy evaluation (reward/step)",
+            "0.59 (optimum 10/17)",
+            "0.41–0.55",
+            Box::new(|g, _| num(&g[0].greedy())),
+        ),
+        ("Q greedy evaluation (reward/step)", "0.0", "—", Box::new(|g, _| num(&g[1].greedy()))),
+        (
+            "undelayed Q-learning (reward/step)",
+            "—",
+            "—",
+            Box::new(|g, _| {
+                let xs: Vec<f64> = g[0]
+                    .results
+                    .iter()
+                    .filter_map(|r| r.baseline.as_ref())
+                    .map(study::RunRecord::earned_per_step)
+                    .collect();
+                num(&mmq_core::stats::mean_ci(&xs))
+            }),
+        ),
+    ];
+    for (label, paper_v, reference, f) in rows.iter() {
+        let (paper_v, reference) =
+            (theirs::only_if(paper_setting, paper_v), theirs::only_if(reference_setting, reference));
+        let _ = write!(t, "| {label} | {paper_v} | {reference} | ");
+        for (_, g, o) in headline {
+            let _ = write!(t, "{} | ", f(g, *o));
+        }
+        t.push('\n');
+    }
+    if !paper_setting {
+        let _ = writeln!(
+            t,
+            "\nThe paper's and the reference's values are \"—\": {}",
+            theirs::variant_note(
+                "MMQ and Q-learning on paper-9x9 under Poisson λ = 13, λ̂max = 50, α 0.1, γ 0.9"
+            )
+        );
+    }
+    let horizon = headline[0].1[0].cfg.steps;
+    let _ = writeln!(
+        t,
+        "\n— : absent. Relative performance is absent where the undelayed baseline earned ≤ 0 in some seed (a \
+         ratio to it has no meaning; the regret and the fraction of the ε-soft ceiling still say how well the learner did).\n\n\
+         Setting of Fig. 6: ε = {}, q0 = {} (the paper states neither; see the sensitivity table and docs/reproduction.md).\n\n\
+         **Horizon.** Every number here is at {horizon} steps (the paper's horizon for Fig. 6 is 150,000). Relative performance \
+         depends on it: the denominator, undelayed Q-learning with the same ε and q0, is itself still learning \
+         (slowly with q0 = 20), so the ratio falls as the baseline catches up: see \"Relative performance \
+         depends on the horizon\" below. The fraction of the ε-soft ceiling (the best any policy exploring \
+         with this ε can earn) and the regret do not have a moving denominator.\n\n\
+         **The robot column**, where present, is the same experiment on the rapier2d robot with its default \
+         (ideal) profile: its controllers close the loop on the true pose, so with noise off its transitions are \
+         the grid's exactly and, with the same seeds and steps, its numbers equal the grid's; the robot's realistic profile (odometry and \
+         localisation) is the one that differs (docs/robot.md).",
+        headline[0].1[0].cfg.learner.params.epsilon, headline[0].1[0].cfg.learner.params.q0
+    );
+    // The headline goes first, right after the introduction.
+    let intro_end = rep.md.find("\n\n").map_or(rep.md.len(), |i| i + 2);
+    let intro_end = rep.md[intro_end..].find("\n\n").map_or(rep.md.len(), |i| intro_end + i + 2);
+    rep.md.insert_str(intro_end, &t);
+    Ok(())
 }
 
 fn fig6(ctx: &Studies<'_>, env: EnvKind, rep: &mut Doc) -> Result<Option<(Vec<Group>, f64)>, ReportError> {
