@@ -13,6 +13,8 @@
 //! the learners are told of), 150,000 steps; seeds per setting as the spec's parts give
 //! them (20 for the headline settings on 9×9), at the budget of [`crate::study::Budget`].
 
+use std::path::Path;
+
 use mmq_core::stats::{MeanCi, mean_ci};
 use mmq_core::{DelayDist, World};
 use mmq_learn::LearnerKind;
@@ -91,15 +93,13 @@ pub fn delay_label(delay: &str) -> String {
 /// its cells are `spec`'s at another budget.
 pub fn plan(spec: &SweepSpec, written: &SweepSpec) -> Vec<(Setting, usize)> {
     let seeds_written = |c: usize| written.plan.cells.get(c).map_or(0, |_| written.plan.seeds_of(c).len());
-    let world_of = |c: usize| spec.config(c).world.clone();
-    // The most seeds any cell on the same world runs, as written.
-    let most = |c: usize| {
-        (0..spec.plan.cells.len())
-            .filter(|&d| world_of(d) == world_of(c))
-            .map(seeds_written)
-            .max()
-            .unwrap_or(0)
-    };
+    // The most seeds any cell on each world runs, as written.
+    let mut most_on: std::collections::HashMap<&Path, usize> = std::collections::HashMap::new();
+    for c in 0..spec.plan.cells.len() {
+        let m = most_on.entry(spec.config(c).world.as_path()).or_default();
+        *m = (*m).max(seeds_written(c));
+    }
+    let most = |c: usize| most_on[spec.config(c).world.as_path()];
     let mut v = Vec::with_capacity(spec.plan.cells.len());
     for c in 0..spec.plan.cells.len() {
         let cell = spec.config(c);

@@ -28,15 +28,18 @@ impl Resolved {
         // The fields first (a bad field is named before a world is read), then the world.
         let dist = cfg.validate()?;
         let world = Arc::new(cfg.load_world()?);
-        crate::runner::check_fits(&cfg, &world)?;
-        Ok(Resolved { cfg, world, dist })
+        Resolved::fitting(cfg, world, dist)
     }
 
     /// The configuration on a world already loaded (with its robot and swarm settings
     /// applied), checked as [`Resolved::new`] checks.
     pub fn with_world(cfg: RunConfig, world: impl Into<Arc<World>>) -> Result<Resolved, LabError> {
-        let world = world.into();
         let dist = cfg.validate()?;
+        Resolved::fitting(cfg, world.into(), dist)
+    }
+
+    /// The parts, once the robot's arena builds and the seeds' tables fit.
+    fn fitting(cfg: RunConfig, world: Arc<World>, dist: DelayDist) -> Result<Resolved, LabError> {
         crate::runner::check_fits(&cfg, &world)?;
         Ok(Resolved { cfg, world, dist })
     }

@@ -20,7 +20,6 @@ pub use group::{Group, configs, groups};
 pub use timing::{StepRewards, last_steps};
 
 use crate::error::LabError;
-use crate::sweep::SweepSpec;
 
 /// The paper's studies as sweep specs, shipped in the binary so that `mmq paper` runs
 /// from any folder; the same files are in `worlds/sweeps/`, where `mmq sweep` runs them
@@ -63,13 +62,6 @@ pub(crate) fn spec_text(folder: Option<&Path>, name: &str) -> Result<(String, Pa
         ),
     })?;
     Ok((text.to_string(), PathBuf::from(format!("{name}.toml"))))
-}
-
-/// The study spec `name` as written: the file `name.toml` in `folder` when there is
-/// one, else the built-in copy.
-pub fn figure_spec(folder: Option<&Path>, name: &str) -> Result<SweepSpec, LabError> {
-    let (text, file) = spec_text(folder, name)?;
-    SweepSpec::parse(&text, &file)
 }
 
 /// The file in `folder` that replaces the built-in study spec `name`, if there is one.

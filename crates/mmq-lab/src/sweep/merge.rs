@@ -2,6 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::plan::Plan;
 use super::spec::SweepSpec;
 use super::stats::is_result_metric;
 use super::store::{finish_dir, is_finished, load_results, read_job, read_manifest, write_renamed};
@@ -71,24 +72,9 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<MergeOutcome, LabError> {
             let Some(r) = r else { continue };
             match &have[j] {
                 Some(mine) if same_results(mine, &r) => {}
-                Some(_) => {
-                    let (c, seed) = plan.job(j);
-                    return Err(LabError::Config {
-                        file: plan.job_path(d, j).display().to_string(),
-                        message: format!(
-                            "cell {} seed {seed} differs from the result already merged; were they run by different versions?",
-                            plan.cells[c].id
-                        ),
-                    });
-                }
+                Some(_) => return Err(differs(plan, d, j, "the result already merged")),
                 None => {
-                    let src = plan.job_path(d, j);
-                    let bytes =
-                        mmq_core::files::read_bounded(&src, MAX_JOB_BYTES).map_err(|e| LabError::Config {
-                            file: src.display().to_string(),
-                            message: format!("cannot read the job file: {e}"),
-                        })?;
-                    write_renamed(&plan.job_path(out, j), &bytes)?;
+                    copy_job(plan, d, out, j)?;
                     have[j] = Some(r);
                     copied += 1;
                 }
@@ -114,30 +100,39 @@ pub fn merge_jobs(spec: &SweepSpec, from: &Path, into: &Path) -> Result<usize, L
         if !is_finished(from, spec, j) {
             continue;
         }
-        let src = plan.job_path(from, j);
         if is_finished(into, spec, j) {
             let (a, b) = (read_job(from, plan, j), read_job(into, plan, j));
             if let (Some(a), Some(b)) = (a, b)
                 && !same_results(&a, &b)
             {
-                let (c, seed) = plan.job(j);
-                return Err(LabError::Config {
-                    file: src.display().to_string(),
-                    message: format!(
-                        "cell {} seed {seed} differs from the result in {}; were they run by different versions?",
-                        plan.cells[c].id,
-                        into.display()
-                    ),
-                });
+                return Err(differs(plan, from, j, &format!("the result in {}", into.display())));
             }
             continue;
         }
-        let bytes = mmq_core::files::read_bounded(&src, MAX_JOB_BYTES).map_err(|e| LabError::Config {
-            file: src.display().to_string(),
-            message: format!("cannot read the job file: {e}"),
-        })?;
-        write_renamed(&plan.job_path(into, j), &bytes)?;
+        copy_job(plan, from, into, j)?;
         copied += 1;
     }
     Ok(copied)
+}
+
+/// Copies job `j`'s file from the folder `from` into `into`, byte for byte.
+fn copy_job(plan: &Plan, from: &Path, into: &Path, j: usize) -> Result<(), LabError> {
+    let src = plan.job_path(from, j);
+    let bytes = mmq_core::files::read_bounded(&src, MAX_JOB_BYTES).map_err(|e| LabError::Config {
+        file: src.display().to_string(),
+        message: format!("cannot read the job file: {e}"),
+    })?;
+    write_renamed(&plan.job_path(into, j), &bytes)
+}
+
+/// Job `j` in the folder `dir` holds another result than `other`.
+fn differs(plan: &Plan, dir: &Path, j: usize, other: &str) -> LabError {
+    let (c, seed) = plan.job(j);
+    LabError::Config {
+        file: plan.job_path(dir, j).display().to_string(),
+        message: format!(
+            "cell {} seed {seed} differs from {other}; were they run by different versions?",
+            plan.cells[c].id
+        ),
+    }
 }

@@ -4,7 +4,7 @@
 //! resumes where it stopped; a shard runs its part of every study and draws nothing.
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use mmq_lab::Control;
 use mmq_lab::study::{self, Budget, Group};
@@ -51,13 +51,21 @@ impl Studies<'_> {
         }
         let advance = |n: u64| self.prog.advance(n);
         let ctl = Control { stop: self.stop, progress: &advance };
+        // A study whose store holds every job (a redraw, or Fig. 6 for the sensitivity
+        // table) shows no progress.
+        let began = AtomicBool::new(false);
         let events = |e: &SweepEvent<'_>| {
-            if let SweepEvent::Planned { steps, .. } = e {
+            if let SweepEvent::Planned { steps, .. } = e
+                && *steps > 0
+            {
+                began.store(true, Ordering::Relaxed);
                 self.prog.begin(*steps, label);
             }
         };
         let ran = mmq_lab::sweep::run_sweep(spec, &store, self.shard, ctl, &events);
-        self.prog.end();
+        if began.load(Ordering::Relaxed) {
+            self.prog.end();
+        }
         ran?;
         Ok(self.shard.is_none().then(|| study::groups(spec, &store)))
     }
