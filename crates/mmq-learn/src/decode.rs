@@ -231,14 +231,15 @@ impl ValueDeconvolver {
         self.parts.iter().map(Deconvolver::noise_variance).sum()
     }
 
-    /// The reward fit's significance threshold in standard errors, over every pair of the
-    /// world (the most features a fit can have).
-    pub fn threshold_in_se(&self) -> f64 {
-        crate::deconv::threshold_in_se(
-            self.cfg.settings.significance,
-            self.num_states * self.num_actions,
-            self.num_actions,
-        )
+    /// The reward fit's significance threshold in standard errors over `pairs`
+    /// state-action pairs (the most pair features a fit can have).
+    pub fn threshold_in_se(&self, pairs: usize) -> f64 {
+        crate::deconv::threshold_in_se(self.cfg.settings.significance, pairs, self.num_actions)
+    }
+
+    /// The configuration it was built with.
+    pub(crate) fn config(&self) -> &DeconvConfig {
+        &self.cfg
     }
 
     /// Refits of the reward fit so far.

@@ -150,6 +150,10 @@ impl LearnerSettings {
             S::Mmq(s) | S::MmqReference(s) => sa * (s.max_delay as u128 + 1),
             S::MmqKernel(s) => sa * (s.max_delay as u128 + 1),
             S::DeconvQ(s) => ValueDeconvolver::table_entries(&s.deconv, sa),
+            // Rewards per outcome fit a slot per outcome (the Q table's entries counted once more).
+            S::DeconvModel(s) if s.outcome_rewards => {
+                sa + ValueDeconvolver::table_entries(&s.deconv, sa * s.features_per_pair() as u128)
+            }
             S::DeconvModel(s) => ValueDeconvolver::table_entries(&s.deconv, sa),
             // The idle state adds a row.
             S::DeconvModelTime(s) => ValueDeconvolver::table_entries(&s.deconv, sa + num_actions as u128),
@@ -198,6 +202,7 @@ impl LearnerSettings {
                 );
                 let l = if s.plan_exploration { l.planning_exploration() } else { l };
                 let l = l.telling(s.told_cells);
+                let l = if s.outcome_rewards { l.with_outcome_rewards() } else { l };
                 let z = s.optimism_confidence;
                 Box::new(if z > 0.0 { l.with_confidence(z) } else { l })
             }

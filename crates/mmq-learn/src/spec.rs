@@ -92,13 +92,18 @@ impl LearnerSpec {
     ) -> Result<Box<dyn Learner>, LearnError> {
         self.validate()?;
         // deconv-model-time adds an idle state.
+        let features = match &self.settings {
+            LearnerSettings::DeconvModel(s) => s.features_per_pair(),
+            _ => 1,
+        };
         if self.settings.deconv().is_some()
-            && (num_states + 1).saturating_mul(num_actions) > crate::deconv::MAX_PAIRS
+            && (num_states + 1).saturating_mul(num_actions).saturating_mul(features)
+                > crate::deconv::MAX_PAIRS
         {
             return Err(LearnError::InvalidParam {
                 field: "world",
                 value: format!("{num_states} cells × {num_actions} actions"),
-                accepted: "the deconvolving learners accept at most 8,388,608 state-action pairs; use a smaller world",
+                accepted: "the deconvolving learners accept at most 8,388,608 state-action pairs (with outcome_rewards, 8 times fewer); use a smaller world",
             });
         }
         let (entries, bytes) = self.table_bytes(num_states, num_actions);
@@ -214,7 +219,8 @@ mod tests {
     }
 
     /// Table sizes by hand: Q is |S||A|, fixed adds its λ̂-step history, MMQ has λ̂max + 1
-    /// tables, and `deconv-model-time` counts an idle state more than `deconv-model`.
+    /// tables, `deconv-model-time` counts an idle state more than `deconv-model` per pair,
+    /// and rewards per outcome fit eight slots per pair.
     #[test]
     fn each_learner_counts_its_own_tables() {
         let entries = |k| LearnerSpec::new(k).table_bytes(81, 4).0;
@@ -223,8 +229,24 @@ mod tests {
         assert_eq!(entries(LearnerKind::Mmq), 324 * 51);
         assert_eq!(entries(LearnerKind::MmqKernel), 324 * 51);
         assert_eq!(entries(LearnerKind::SarsaLambda), 324);
-        assert!(entries(LearnerKind::DeconvModelTime) > entries(LearnerKind::DeconvModel));
-        assert_eq!(entries(LearnerKind::DeconvQ), entries(LearnerKind::DeconvModel));
+        // Per pair, deconv-model keeps what deconv-q keeps; per outcome (its default) Q and
+        // eight slots of R̂ and the lagged sums per pair.
+        let model = |outcomes: bool| {
+            let mut s = crate::settings::DeconvModelSettings::default();
+            s.outcome_rewards = outcomes;
+            LearnerSpec {
+                settings: LearnerSettings::DeconvModel(s),
+                ..LearnerSpec::new(LearnerKind::DeconvModel)
+            }
+            .table_bytes(81, 4)
+            .0
+        };
+        assert_eq!(model(true), entries(LearnerKind::DeconvModel));
+        assert_eq!(entries(LearnerKind::DeconvQ), model(false));
+        let deconv = crate::settings::DeconvModelSettings::default().deconv;
+        assert_eq!(model(true), 324 + crate::decode::ValueDeconvolver::table_entries(&deconv, 324 * 8));
+        assert_eq!(model(false), crate::decode::ValueDeconvolver::table_entries(&deconv, 324));
+        assert!(entries(LearnerKind::DeconvModelTime) > model(false));
         assert_eq!(LearnerSpec::new(LearnerKind::Q).table_bytes(81, 4).1, 324 * 8 + 81 * 12);
     }
 

@@ -31,7 +31,7 @@ pub enum SweepEvent<'a> {
         done: usize,
         /// Distinct undelayed baselines to compute first.
         baselines: usize,
-        /// Decision steps to run (jobs and baselines), for a progress bar.
+        /// Decision steps to run (jobs, their references and baselines), for a progress bar.
         steps: u64,
     },
     /// A job finished and its result was written.
@@ -233,8 +233,10 @@ fn run_sweep_how(
         })
         .collect();
     let baselines = baselines_needed(&jobs);
-    let steps: u64 = jobs.iter().map(|j| j.run.cfg().steps).sum::<u64>()
-        + baselines.iter().map(|(_, steps)| steps).sum::<u64>();
+    // A job with the grid-optimal reference runs its steps twice.
+    let steps: u64 =
+        jobs.iter().map(|j| j.run.cfg().steps * (1 + u64::from(j.run.cfg().reference))).sum::<u64>()
+            + baselines.iter().map(|(_, steps)| steps).sum::<u64>();
     events(&SweepEvent::Planned {
         jobs_total: plan.jobs(),
         jobs_here: here.len(),
@@ -376,6 +378,31 @@ mod tests {
         assert_eq!(failures, [None, Some("gave up after 100 steps".to_string()), None]);
         let again = run_sweep_with(&s, dir.path(), None, ctl, &|_| {}, Some(&f)).unwrap();
         assert_eq!((again.ran, again.skipped, made.load(Ordering::SeqCst)), (0, 3, 3));
+    }
+
+    /// The progress counts a job's grid-optimal reference: the steps reported done come
+    /// to the steps planned, twice a job's own with the reference.
+    #[test]
+    fn the_planned_steps_include_the_reference() {
+        use std::sync::atomic::AtomicU64;
+        let text = "world = \"../paper-3x3.toml\"\nlearner = \"q\"\ndelay = \"poisson:2\"\nsteps = 500\nseeds = 2\nbaseline = false\nreference = true\n";
+        let s = spec(text).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let stop = AtomicBool::new(false);
+        let done = AtomicU64::new(0);
+        let add = |n: u64| {
+            done.fetch_add(n, Ordering::SeqCst);
+        };
+        let ctl = Control { stop: &stop, progress: &add };
+        let planned = AtomicU64::new(0);
+        let events = |e: &SweepEvent| {
+            if let SweepEvent::Planned { steps, .. } = e {
+                planned.store(*steps, Ordering::SeqCst);
+            }
+        };
+        run_sweep_with(&s, dir.path(), None, ctl, &events, None).unwrap();
+        assert_eq!(planned.load(Ordering::SeqCst), 2 * 500 * 2);
+        assert_eq!(done.load(Ordering::SeqCst), 2 * 500 * 2);
     }
 
     /// Curve points by hand: earned reward per step in equal parts of the run.

@@ -82,11 +82,14 @@ use crate::params::Params;
 use crate::table::{QTable, q_table_methods};
 
 mod confidence;
+mod outcomes;
 mod settings;
 mod told_cells;
 mod trajectory;
 
 use confidence::Confidence;
+use outcomes::Outcomes;
+pub use outcomes::SLOTS as OUTCOME_SLOTS;
 pub use settings::{DeconvModelSettings, ExploreSettings};
 pub use told_cells::ToldCells;
 pub(crate) use trajectory::Trajectory;
@@ -119,6 +122,8 @@ pub struct DeconvModel {
     dirty: Dirty,
     /// A diagnostic's true cells ([`ToldCells`]; none for an agent).
     told: ToldCells,
+    /// Rewards per outcome, (M3) (module `outcomes`); None: per pair.
+    outcomes: Option<Outcomes>,
 }
 
 /// Which states a sweep of (M1) must recompute: the others would get their values
@@ -249,7 +254,23 @@ impl DeconvModel {
             plan_exploration: false,
             dirty: Dirty::new(num_states),
             told: ToldCells::None,
+            outcomes: None,
         }
+    }
+
+    /// The same model fitting a reward per outcome (s, a, s') and planning with (M3)
+    /// (module `outcomes`). Call before [`Self::with_confidence`], on a fresh model.
+    pub fn with_outcome_rewards(mut self) -> Self {
+        let (num_states, a_n) = (self.v.len(), self.q.num_actions());
+        self.deconv = ValueDeconvolver::new(self.deconv.config().clone(), num_states * outcomes::SLOTS, a_n);
+        self.outcomes = Some(Outcomes::new(num_states, a_n));
+        self
+    }
+
+    /// R̂(x) of pair x as the planning takes it: the fitted reward of the pair, or under
+    /// rewards per outcome (M3) over its counted successors.
+    pub fn pair_reward(&self, x: usize) -> f64 {
+        pair_reward(self.outcomes.as_ref(), &self.deconv, x)
     }
 
     /// The same model planning the values of the ε-greedy policy it follows, (M1′):
@@ -262,7 +283,7 @@ impl DeconvModel {
     /// The same model with exploration from confidence (M2) at z standard errors
     /// (z > 0; the fixed count of `new` is then unused).
     pub fn with_confidence(mut self, z: f64) -> Self {
-        let mut c = Confidence::new(z, self.deconv.threshold_in_se(), self.tries.len());
+        let mut c = Confidence::new(z, self.deconv.threshold_in_se(self.tries.len()), self.tries.len());
         c.update(&self.deconv);
         self.confidence = Some(c);
         self
@@ -320,7 +341,7 @@ impl DeconvModel {
             let i = s * a_n + a;
             self.known(i)
                 && matches!(self.next[i][..], [(s2, _)] if s2 as usize == s)
-                && self.deconv.reward(i) < 0.0
+                && self.pair_reward(i) < 0.0
         })
     }
 
@@ -344,10 +365,10 @@ impl DeconvModel {
             c.fill_deficits();
             // Knownness changes only for pairs tried and not yet known.
             let (tries, Dirty { bits, pending, .. }) = (&self.tries, &mut self.dirty);
-            let deconv = &self.deconv;
+            let (deconv, outcomes) = (&self.deconv, self.outcomes.as_ref());
             pending.retain(|&x| {
                 let x = x as usize;
-                if c.known(x, tries[x], deconv.reward(x)) {
+                if c.known(x, tries[x], pair_reward(outcomes, deconv, x)) {
                     bits[x / a_n / 64] |= 1 << (x / a_n % 64);
                     false
                 } else {
@@ -373,8 +394,12 @@ impl DeconvModel {
                 } else {
                     let inv = 1.0 / n as f64;
                     let ev: f64 = self.next[i].iter().map(|&(s2, c)| c as f64 * self.v[s2 as usize]).sum();
+                    let r = match self.outcomes.as_ref() {
+                        None => self.deconv.reward(i),
+                        Some(o) => o.pair_reward(&self.deconv, i),
+                    };
                     // (M1)
-                    self.deconv.reward(i) + gamma * ev * inv
+                    r + gamma * ev * inv
                 };
                 self.q[i] = q;
                 best = best.max(q);
@@ -428,7 +453,15 @@ impl Learner for DeconvModel {
         let cells = self.told.cells(e);
         let ((s_c, s2_c), (s, s2)) = (cells.credit, cells.count);
         let x = self.q.index(s_c, e.action);
-        self.deconv.observe_transition(x, s2_c, e.reward);
+        let feature = match self.outcomes.as_mut() {
+            Some(o) => {
+                // (M3) of s_c's pairs changes with its outcome counts.
+                self.dirty.mark(s_c);
+                o.observe(s_c, e.action, s2_c)
+            }
+            None => x,
+        };
+        self.deconv.observe_transition(feature, s2_c, e.reward);
         let i = self.q.index(s, e.action);
         self.tries[i] += 1;
         self.dirty.mark(s);
@@ -463,7 +496,13 @@ impl Learner for DeconvModel {
 
     fn tables(&self) -> Vec<Table> {
         let mut t = vec![self.q.export("q")];
-        t.extend(self.deconv.tables());
+        let [mut r_hat, pmf] = self.deconv.tables();
+        if self.outcomes.is_some() {
+            // Per pair, as without outcomes: (M3).
+            r_hat.shape = vec![self.v.len(), self.q.num_actions()];
+            r_hat.data = (0..self.tries.len()).map(|x| self.pair_reward(x)).collect();
+        }
+        t.extend([r_hat, pmf]);
         t
     }
 
@@ -496,6 +535,14 @@ impl Learner for DeconvModel {
 
     fn swap_memory(&mut self, other: &mut Memory) {
         self.swap_trajectory(other);
+    }
+}
+
+/// [`DeconvModel::pair_reward`] over the model's parts (for closures that borrow others).
+fn pair_reward(outcomes: Option<&Outcomes>, deconv: &ValueDeconvolver, x: usize) -> f64 {
+    match outcomes {
+        None => deconv.reward(x),
+        Some(o) => o.pair_reward(deconv, x),
     }
 }
 

@@ -63,8 +63,8 @@ impl ExploreSettings {
 /// Its defaults ([`Default`]) put the reward first: exploration from confidence (z = 2),
 /// delay probes on any step, refits every 100 steps early, four rounds of the
 /// alternation per refit, refits on surprise (z = 3), sparser refits once the delay has
-/// settled (s = 0.5 steps) and planning the ε-greedy policy's values
-/// (docs/algorithms/deconv-model.md, "Reward first"). A setting that a
+/// settled (s = 0.5 steps), planning the ε-greedy policy's values
+/// (docs/algorithms/deconv-model.md, "Reward first") and rewards per outcome. A setting that a
 /// configuration file does not give reads as off ([`Self::when_absent`]): a recording
 /// made before a setting existed then replays as it ran.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -92,6 +92,12 @@ pub struct DeconvModelSettings {
     /// cell where the believed one can be wrong, `"none"` (the default), `"rewards"`,
     /// `"transitions"` or `"both"` ([`super::ToldCells`]).
     pub told_cells: ToldCells,
+    /// Fit a reward per outcome (s, a, s') and plan with each pair's average over its
+    /// counted outcomes ([`crate::deconv_model`], (M3)), so that a reward earned from a
+    /// cell the agent did not believe it was in is credited to a rare outcome rather than
+    /// to the whole pair. On by default; on a world whose moves are deterministic (the
+    /// grid, the ideal robot) it learns exactly what rewards per pair learn.
+    pub outcome_rewards: bool,
 }
 
 impl Default for DeconvModelSettings {
@@ -109,6 +115,7 @@ impl Default for DeconvModelSettings {
             optimism_confidence: 2.0,
             plan_exploration: true,
             told_cells: ToldCells::None,
+            outcome_rewards: true,
         }
     }
 }
@@ -128,6 +135,11 @@ impl DeconvModelSettings {
         Ok(())
     }
 
+    /// The reward features per state-action pair: one, or a slot per outcome.
+    pub(crate) fn features_per_pair(&self) -> usize {
+        if self.outcome_rewards { super::OUTCOME_SLOTS } else { 1 }
+    }
+
     /// Every reward-first setting off: the fixed count `optimism_visits`, probes on greedy
     /// steps, refits every 250 steps early, one round, no refits on surprise, planning
     /// V(s) = max_a Q. The value of a setting a configuration file does not give, and the
@@ -139,6 +151,7 @@ impl DeconvModelSettings {
             optimism_confidence: 0.0,
             plan_exploration: false,
             told_cells: ToldCells::None,
+            outcome_rewards: false,
         }
     }
 }
