@@ -232,8 +232,7 @@ mod tests {
         // Per pair, deconv-model keeps what deconv-q keeps; per outcome (its default) Q and
         // eight slots of R̂ and the lagged sums per pair.
         let model = |outcomes: bool| {
-            let mut s = crate::settings::DeconvModelSettings::default();
-            s.outcome_rewards = outcomes;
+            let s = crate::settings::DeconvModelSettings { outcome_rewards: outcomes, ..Default::default() };
             LearnerSpec {
                 settings: LearnerSettings::DeconvModel(s),
                 ..LearnerSpec::new(LearnerKind::DeconvModel)

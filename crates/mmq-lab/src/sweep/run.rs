@@ -395,7 +395,7 @@ mod tests {
         };
         let ctl = Control { stop: &stop, progress: &add };
         let planned = AtomicU64::new(0);
-        let events = |e: &SweepEvent| {
+        let events = |e: &SweepEvent<'_>| {
             if let SweepEvent::Planned { steps, .. } = e {
                 planned.store(*steps, Ordering::SeqCst);
             }
