@@ -12,7 +12,9 @@
 //! [`DeconvModel::new`] builds the plain learner: a pair is known once N(x) ≥ m =
 //! `optimism_visits`, and it plans with (M1). The settings of `deconv-model`
 //! ([`DeconvModelSettings`], in `settings.rs` beside this file) turn on, by default, (M1′)
-//! and (M2) below ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`]).
+//! and (M2) below ([`DeconvModel::planning_exploration`], [`DeconvModel::with_confidence`])
+//! and rewards per outcome, R̂(s, a) = Σ_s' P̂(s' | s, a) R̂(s, a, s') (M3), fitted per
+//! transition (module `outcomes`, [`DeconvModel::with_outcome_rewards`]).
 //!
 //! *Planning the ε-greedy values* (`plan_exploration`). The agent follows
 //! the ε-greedy policy, whose random action is uniform over the actions, so the value it
@@ -394,12 +396,8 @@ impl DeconvModel {
                 } else {
                     let inv = 1.0 / n as f64;
                     let ev: f64 = self.next[i].iter().map(|&(s2, c)| c as f64 * self.v[s2 as usize]).sum();
-                    let r = match self.outcomes.as_ref() {
-                        None => self.deconv.reward(i),
-                        Some(o) => o.pair_reward(&self.deconv, i),
-                    };
-                    // (M1)
-                    r + gamma * ev * inv
+                    // (M1), R̂ by (M3) under rewards per outcome.
+                    pair_reward(self.outcomes.as_ref(), &self.deconv, i) + gamma * ev * inv
                 };
                 self.q[i] = q;
                 best = best.max(q);
