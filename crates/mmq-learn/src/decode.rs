@@ -151,14 +151,17 @@ pub struct ValueDeconvolver {
 }
 
 impl ValueDeconvolver {
-    /// Table entries of a deconvolving learner with `settings` over `pairs` state-action pairs: Q, R̂ and
-    /// the lagged reward sums of every pair (worst case: all pairs visited), once per
+    /// Table entries of a deconvolving learner with `settings` over `pairs` state-action
+    /// pairs whose reward fit has `features` features (the pairs, or their outcomes): Q,
+    /// R̂ and the lagged reward sums of every feature (worst case: all seen), once per
     /// reward value when decoding (worst case: MAX_VALUES of them); the sparse
     /// co-occurrence counts grow with the run instead (at most 24 bytes × (K + 1) per
     /// step, docs/performance.md).
-    pub(crate) fn table_entries(settings: &DeconvSettings, pairs: u128) -> u128 {
+    pub(crate) fn table_entries(settings: &DeconvSettings, pairs: u128, features: u128) -> u128 {
         let copies = if settings.decode_values { MAX_VALUES as u128 } else { 1 };
-        2 * pairs + copies * Deconvolver::stats_bytes(pairs as usize, settings.max_delay).div_ceil(8)
+        pairs
+            + features
+            + copies * Deconvolver::stats_bytes(features as usize, settings.max_delay).div_ceil(8)
     }
 
     /// A reward model over `num_states` × `num_actions` pairs.

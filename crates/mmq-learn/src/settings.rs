@@ -140,6 +140,15 @@ impl LearnerSettings {
         }
     }
 
+    /// The reward fit's features per state-action pair of a deconvolving learner: one,
+    /// or `deconv-model`'s slot per outcome with `outcome_rewards`.
+    pub(crate) fn reward_features_per_pair(&self) -> usize {
+        match self {
+            LearnerSettings::DeconvModel(s) => s.features_per_pair(),
+            _ => 1,
+        }
+    }
+
     /// Table entries for `num_states` × `num_actions` (exact for the big tables).
     pub fn table_entries(&self, num_states: usize, num_actions: usize) -> u128 {
         use LearnerSettings as S;
@@ -149,14 +158,15 @@ impl LearnerSettings {
             S::Fixed(s) => sa + s.lambda_hat as u128,
             S::Mmq(s) | S::MmqReference(s) => sa * (s.max_delay as u128 + 1),
             S::MmqKernel(s) => sa * (s.max_delay as u128 + 1),
-            S::DeconvQ(s) => ValueDeconvolver::table_entries(&s.deconv, sa),
-            // Rewards per outcome fit a slot per outcome (the Q table's entries counted once more).
-            S::DeconvModel(s) if s.outcome_rewards => {
-                sa + ValueDeconvolver::table_entries(&s.deconv, sa * s.features_per_pair() as u128)
+            S::DeconvQ(s) => ValueDeconvolver::table_entries(&s.deconv, sa, sa),
+            S::DeconvModel(s) => {
+                ValueDeconvolver::table_entries(&s.deconv, sa, sa * self.reward_features_per_pair() as u128)
             }
-            S::DeconvModel(s) => ValueDeconvolver::table_entries(&s.deconv, sa),
             // The idle state adds a row.
-            S::DeconvModelTime(s) => ValueDeconvolver::table_entries(&s.deconv, sa + num_actions as u128),
+            S::DeconvModelTime(s) => {
+                let pairs = sa + num_actions as u128;
+                ValueDeconvolver::table_entries(&s.deconv, pairs, pairs)
+            }
         }
     }
 

@@ -92,10 +92,7 @@ impl LearnerSpec {
     ) -> Result<Box<dyn Learner>, LearnError> {
         self.validate()?;
         // deconv-model-time adds an idle state.
-        let features = match &self.settings {
-            LearnerSettings::DeconvModel(s) => s.features_per_pair(),
-            _ => 1,
-        };
+        let features = self.settings.reward_features_per_pair();
         if self.settings.deconv().is_some()
             && (num_states + 1).saturating_mul(num_actions).saturating_mul(features)
                 > crate::deconv::MAX_PAIRS
@@ -243,8 +240,8 @@ mod tests {
         assert_eq!(model(true), entries(LearnerKind::DeconvModel));
         assert_eq!(entries(LearnerKind::DeconvQ), model(false));
         let deconv = crate::settings::DeconvModelSettings::default().deconv;
-        assert_eq!(model(true), 324 + crate::decode::ValueDeconvolver::table_entries(&deconv, 324 * 8));
-        assert_eq!(model(false), crate::decode::ValueDeconvolver::table_entries(&deconv, 324));
+        assert_eq!(model(true), crate::decode::ValueDeconvolver::table_entries(&deconv, 324, 324 * 8));
+        assert_eq!(model(false), crate::decode::ValueDeconvolver::table_entries(&deconv, 324, 324));
         assert!(entries(LearnerKind::DeconvModelTime) > model(false));
         assert_eq!(LearnerSpec::new(LearnerKind::Q).table_bytes(81, 4).1, 324 * 8 + 81 * 12);
     }

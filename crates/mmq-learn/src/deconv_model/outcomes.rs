@@ -31,13 +31,14 @@ use crate::decode::ValueDeconvolver;
 pub const SLOTS: usize = 8;
 
 /// The successors each state has led to, in the order first seen (at most [`SLOTS`]),
-/// and each pair's counted successors, (s', N(s, a, s')) in the order first seen. The
-/// counts are those of the cells the reward fit is given: the agent's (then they are the
-/// model's transition counts), or a diagnostic's true cells (`told_cells`).
+/// and each pair's counted successors, (s', N(s, a, s'), the reward feature of
+/// (s, a, s')) in the order first seen. The counts are those of the cells the reward fit
+/// is given: the agent's (then they are the model's transition counts), or a diagnostic's
+/// true cells (`told_cells`).
 #[derive(Clone, Debug)]
 pub(super) struct Outcomes {
     succ: Vec<Vec<u32>>,
-    counts: Vec<Vec<(u32, u32)>>,
+    counts: Vec<Vec<(u32, u32, u32)>>,
     num_actions: usize,
 }
 
@@ -63,39 +64,29 @@ impl Outcomes {
         }
     }
 
-    /// The slot of successor `s2` of state `s` (the last slot when it was not numbered).
-    fn slot(&self, s: usize, s2: usize) -> usize {
-        self.succ[s].iter().position(|&x| x as usize == s2).unwrap_or(SLOTS - 1)
-    }
-
-    fn feature(&self, s: usize, a: usize, o: usize) -> usize {
-        (s * SLOTS + o) * self.num_actions + a
-    }
-
-    /// Counts transition (s, a, s') and returns its reward feature, numbering s' if it is
-    /// new.
+    /// Counts transition (s, a, s') and returns its reward feature, (s · SLOTS + o) · |A|
+    /// + a with o the slot of s', numbering s' if it is new.
     pub(super) fn observe(&mut self, s: usize, a: usize, s2: usize) -> usize {
-        let next = &mut self.counts[s * self.num_actions + a];
-        match next.iter_mut().find(|e| e.0 as usize == s2) {
-            Some(e) => e.1 += 1,
-            None => next.push((s2 as u32, 1)),
+        let x = s * self.num_actions + a;
+        if let Some(e) = self.counts[x].iter_mut().find(|e| e.0 as usize == s2) {
+            e.1 += 1;
+            return e.2 as usize;
         }
-        let o = self.slot_or_new(s, s2);
-        self.feature(s, a, o)
+        let feature = (s * SLOTS + self.slot_or_new(s, s2)) * self.num_actions + a;
+        self.counts[x].push((s2 as u32, 1, feature as u32));
+        feature
     }
 
     /// (M3): the reward of pair x = s · |A| + a, its fitted outcome rewards weighted by
     /// its counted successors; 0 when untried.
     pub(super) fn pair_reward(&self, r: &ValueDeconvolver, x: usize) -> f64 {
-        let (s, a) = (x / self.num_actions, x % self.num_actions);
-        let of = |s2: u32| r.reward(self.feature(s, a, self.slot(s, s2 as usize)));
         match &self.counts[x][..] {
             [] => 0.0,
             // One outcome so far: its reward, exactly (N·R / N need not be R in floating point).
-            [(s2, _)] => of(*s2),
+            [(_, _, f)] => r.reward(*f as usize),
             next => {
                 let n: u32 = next.iter().map(|e| e.1).sum();
-                next.iter().map(|&(s2, c)| f64::from(c) * of(s2)).sum::<f64>() / f64::from(n)
+                next.iter().map(|&(_, c, f)| f64::from(c) * r.reward(f as usize)).sum::<f64>() / f64::from(n)
             }
         }
     }
@@ -186,8 +177,9 @@ mod tests {
         let ids: Vec<usize> = (0..12).map(|s2| o.observe(3, 1, s2)).collect();
         let want: Vec<usize> = (0..12).map(|s2: usize| (3 * SLOTS + s2.min(SLOTS - 1)) * 2 + 1).collect();
         assert_eq!(ids, want);
-        assert_eq!(o.slot(3, 11), SLOTS - 1);
-        assert_eq!(o.slot(3, 2), 2);
+        // Seen again, each keeps its feature; the ninth on shares the last slot's.
+        assert_eq!(o.observe(3, 1, 11), (3 * SLOTS + SLOTS - 1) * 2 + 1);
+        assert_eq!(o.observe(3, 1, 2), (3 * SLOTS + 2) * 2 + 1);
         assert_eq!(o.observe(4, 0, 3), 4 * SLOTS * 2);
     }
 }
